@@ -1,0 +1,139 @@
+//! The baseline grid: every built-in policy on every scenario and tier,
+//! summarised per cell with normal-approximation 95% CIs.
+
+use crate::episode::{EpisodeRecord, Outcome, run_episode};
+use crate::policy::PolicyKind;
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use crate::stats::{Interval, normal_ci_mean, normal_ci_proportion};
+use serde::{Deserialize, Serialize};
+
+/// One (scenario, tier, policy) cell of the grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Cell {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub policy: PolicyKind,
+}
+
+/// Reward range seen for one outcome (for the reward-ordering invariant).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RewardSpan {
+    pub count: usize,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Default for RewardSpan {
+    fn default() -> Self {
+        RewardSpan { count: 0, min: f64::INFINITY, max: f64::NEG_INFINITY }
+    }
+}
+
+impl RewardSpan {
+    fn add(&mut self, r: f64) {
+        self.count += 1;
+        self.min = self.min.min(r);
+        self.max = self.max.max(r);
+    }
+}
+
+/// Summary of one cell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellSummary {
+    pub cell: Cell,
+    pub n: usize,
+    pub success: Interval,
+    pub collision: Interval,
+    pub timeout: Interval,
+    pub reward: Interval,
+    pub decision_correctness: Interval,
+    pub spans: [RewardSpan; 3],
+}
+
+impl CellSummary {
+    pub fn from_records(cell: Cell, records: &[EpisodeRecord]) -> CellSummary {
+        let n = records.len();
+        let count = |o: Outcome| records.iter().filter(|r| r.outcome == o).count();
+        let rewards: Vec<f64> = records.iter().map(|r| r.grades.reward).collect();
+        let correctness: Vec<f64> = records.iter().map(|r| r.grades.decision_correctness).collect();
+        let mut spans = [RewardSpan::default(); 3];
+        for r in records {
+            spans[outcome_index(r.outcome)].add(r.grades.reward);
+        }
+        CellSummary {
+            cell,
+            n,
+            success: normal_ci_proportion(count(Outcome::Success), n),
+            collision: normal_ci_proportion(count(Outcome::Collision), n),
+            timeout: normal_ci_proportion(count(Outcome::Timeout), n),
+            reward: normal_ci_mean(&rewards),
+            decision_correctness: normal_ci_mean(&correctness),
+            spans,
+        }
+    }
+
+    pub fn span(&self, outcome: Outcome) -> RewardSpan {
+        self.spans[outcome_index(outcome)]
+    }
+}
+
+fn outcome_index(o: Outcome) -> usize {
+    match o {
+        Outcome::Success => 0,
+        Outcome::Collision => 1,
+        Outcome::Timeout => 2,
+    }
+}
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct GridSpec {
+    pub scenarios: Vec<ScenarioKind>,
+    pub tiers: Vec<Tier>,
+    pub policies: Vec<PolicyKind>,
+    pub episodes: usize,
+    pub seed_base: u64,
+}
+
+/// Play every episode of one cell: seeds `seed_base .. seed_base + n`.
+pub fn run_cell(set: &ScenarioSet, cell: Cell, episodes: usize, seed_base: u64) -> Vec<EpisodeRecord> {
+    let config = set.get(cell.scenario);
+    let mut policy = cell.policy.build();
+    (0..episodes as u64).map(|i| run_episode(config, cell.tier, seed_base.wrapping_add(i), policy.as_mut())).collect()
+}
+
+/// Run the grid on all cores; cells come back in grid order. `each` sees
+/// every cell's records before they are dropped (the validator uses it).
+pub fn run_grid(
+    set: &ScenarioSet,
+    spec: &GridSpec,
+    each: &(dyn Fn(Cell, &[EpisodeRecord]) + Sync),
+) -> Vec<CellSummary> {
+    let mut cells = Vec::new();
+    for &scenario in &spec.scenarios {
+        for &tier in &spec.tiers {
+            for &policy in &spec.policies {
+                cells.push(Cell { scenario, tier, policy });
+            }
+        }
+    }
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(cells.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut out: Vec<Option<CellSummary>> = vec![None; cells.len()];
+    let results = std::sync::Mutex::new(&mut out);
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(&cell) = cells.get(i) else { break };
+                    let records = run_cell(set, cell, spec.episodes, spec.seed_base);
+                    each(cell, &records);
+                    let summary = CellSummary::from_records(cell, &records);
+                    results.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(summary);
+                }
+            });
+        }
+    });
+    out.into_iter().flatten().collect()
+}

@@ -1,0 +1,99 @@
+//! Command-line interface: one file per subcommand. Each turns its clap
+//! arguments into a validated options value, runs, and returns an exit code.
+
+mod baselines;
+mod eval;
+mod serve;
+mod validate;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Documented exit codes.
+pub mod exit {
+    /// Everything ran and passed.
+    pub const SUCCESS: u8 = 0;
+    /// The command ran but its result is a failure: an invariant failed, or
+    /// an eval run finished with rollouts still missing (infrastructure
+    /// errors; re-run the same command to resume them).
+    pub const FAILURE: u8 = 1;
+    /// Bad input: an unknown scenario or policy, a malformed flag or config.
+    pub const USAGE: u8 = 2;
+    /// The endpoint refused the run (authentication, unknown model).
+    pub const REFUSED: u8 = 3;
+    /// Anything else went wrong (I/O, an internal error).
+    pub const ERROR: u8 = 4;
+}
+
+/// A usage error: reported as one line, exit code 2.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// The endpoint refused the run: exit code 3.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct RefusedError(pub String);
+
+pub fn usage(msg: impl Into<String>) -> anyhow::Error {
+    UsageError(msg.into()).into()
+}
+
+#[derive(Debug, Parser)]
+#[command(name = "negotiator", version, about = "Can a model read another road user's hidden intent from its motion, and drive accordingly?")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Play episodes with a language model behind an OpenAI-compatible endpoint.
+    Eval(eval::EvalArgs),
+    /// Run the non-LLM baseline policies on every scenario and tier.
+    Baselines(baselines::BaselinesArgs),
+    /// Check the benchmark's invariants; non-zero exit if any fails.
+    Validate(validate::ValidateArgs),
+    /// Serve a scripted policy as an OpenAI-compatible chat endpoint.
+    Serve(serve::ServeArgs),
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Eval(args) => args.run(),
+        Command::Baselines(args) => args.run(),
+        Command::Validate(args) => args.run(),
+        Command::Serve(args) => args.run(),
+    }
+}
+
+/// Exit code for an error that reached `main`.
+pub fn exit_code_for(e: &anyhow::Error) -> u8 {
+    if e.chain().any(|c| c.is::<UsageError>() || c.is::<crate::scenario::ScenarioError>()) {
+        exit::USAGE
+    } else if e.chain().any(|c| c.is::<RefusedError>()) {
+        exit::REFUSED
+    } else {
+        exit::ERROR
+    }
+}
+
+/// Writing to a closed pipe (`negotiator baselines | head`) is not an error.
+pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+}
+
+/// `all` or a comma-separated list, for --scenario / --tier.
+pub fn parse_list<T: std::str::FromStr>(value: &str, all: &[T], flag: &str) -> anyhow::Result<Vec<T>>
+where
+    T: Clone,
+    T::Err: std::fmt::Display,
+{
+    if value.trim() == "all" {
+        return Ok(all.to_vec());
+    }
+    value
+        .split(',')
+        .map(|v| v.trim().parse::<T>().map_err(|e| usage(format!("{flag}: {e}"))))
+        .collect()
+}

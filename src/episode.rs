@@ -1,0 +1,407 @@
+//! The episode: an environment-style wrapper around one scenario world.
+//! Start it from (scenario, tier, seed), read the public observation, step
+//! it with an action every turn, read the outcome. Baselines, `validate`,
+//! `serve` and the LLM loop all drive this same code.
+
+use crate::action::Action;
+use crate::grading::{self, Diagnostics, Grades};
+use crate::observation::{EgoView, Observation};
+use crate::rng::{EpisodeRng, Stream};
+use crate::scenario::contested_merge::MergeWorld;
+use crate::scenario::pedestrian_feint::PedestrianWorld;
+use crate::scenario::world::{PlanPoint, World};
+use crate::scenario::yield_standoff::YieldWorld;
+use crate::scenario::{Disposition, ScenarioConfig, ScenarioKind, Tier, episode_key};
+use crate::sim::{Body, DECISION_INTERVAL, DT, EGO_MAX_ACCEL, EGO_MAX_BRAKE};
+use serde::{Deserialize, Serialize};
+
+/// How an episode ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    Success,
+    Collision,
+    Timeout,
+}
+
+impl Outcome {
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Success => "success",
+            Outcome::Collision => "collision",
+            Outcome::Timeout => "timeout",
+        }
+    }
+}
+
+/// What identifies an episode: the same spec and the same actions give the
+/// same episode on any machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct EpisodeSpec {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seed: u64,
+}
+
+/// The disposition drawn 50/50 from the episode's own stream.
+pub fn draw_disposition(spec: EpisodeSpec) -> Disposition {
+    let key = episode_key(spec.scenario, spec.tier, spec.seed);
+    let [a, b] = spec.scenario.dispositions();
+    if EpisodeRng::new(&key, Stream::Disposition).coin() { b } else { a }
+}
+
+/// Seed for a policy's own randomness in this episode: from its own stream,
+/// so it reveals nothing about the disposition.
+pub fn policy_seed(spec: EpisodeSpec) -> u64 {
+    EpisodeRng::new(&episode_key(spec.scenario, spec.tier, spec.seed), Stream::Policy).next_u64()
+}
+
+/// One decision as the graders see it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DecisionRecord {
+    pub turn: u32,
+    pub time_s: f64,
+    pub action: Action,
+    /// Whether the go / give-way question was already settled when this
+    /// decision was taken.
+    pub after_resolution: bool,
+}
+
+/// Plan-view positions at one decision (ego first).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrajectoryPoint {
+    pub time_s: f64,
+    pub agents: Vec<PlanPoint>,
+}
+
+/// Everything the graders need, accumulated step by step.
+#[derive(Debug, Clone, Default)]
+struct Tracker {
+    min_gap_m: f64,
+    min_ttc_s: Option<f64>,
+    hard_brakes: u32,
+    braking_hard: bool,
+    row_violations: u32,
+    cutting_off: bool,
+    peak_accel: f64,
+    peak_decel: f64,
+    peak_jerk: f64,
+    comfortable_steps: u32,
+    steps: u32,
+    interval_accel_sum: f64,
+    last_interval_accel: Option<f64>,
+    jerk_ok_intervals: u32,
+    intervals: u32,
+    time_to_goal_s: Option<f64>,
+}
+
+pub struct Episode {
+    spec: EpisodeSpec,
+    disposition: Disposition,
+    world: Box<dyn World + Send>,
+    ego: Body,
+    start_s: f64,
+    goal_s: f64,
+    speed_limit: f64,
+    turn_budget: u32,
+    turn: u32,
+    step: u32,
+    held: Option<Action>,
+    outcome: Option<Outcome>,
+    observation: Observation,
+    decisions: Vec<DecisionRecord>,
+    trajectory: Option<Vec<TrajectoryPoint>>,
+    tracker: Tracker,
+}
+
+impl Episode {
+    /// Start an episode; the hidden disposition is drawn from the seed.
+    pub fn new(config: &ScenarioConfig, tier: Tier, seed: u64) -> Episode {
+        let spec = EpisodeSpec { scenario: config.kind(), tier, seed };
+        Self::with_disposition(config, tier, seed, draw_disposition(spec))
+    }
+
+    /// Start an episode with a chosen disposition (same geometry as the
+    /// seed's). Used by the invariant checks that compare dispositions.
+    pub fn with_disposition(config: &ScenarioConfig, tier: Tier, seed: u64, disposition: Disposition) -> Episode {
+        let spec = EpisodeSpec { scenario: config.kind(), tier, seed };
+        let key = episode_key(spec.scenario, tier, seed);
+        let mut geometry = EpisodeRng::new(&key, Stream::Geometry);
+        let world: Box<dyn World + Send> = match config {
+            ScenarioConfig::YieldStandoff(p) => Box::new(YieldWorld::new(p, tier, disposition, &mut geometry)),
+            ScenarioConfig::PedestrianFeint(p) => Box::new(PedestrianWorld::new(p, tier, disposition, &mut geometry)),
+            ScenarioConfig::ContestedMerge(p) => Box::new(MergeWorld::new(
+                p,
+                tier,
+                disposition,
+                &mut geometry,
+                EpisodeRng::new(&key, Stream::ObservationNoise),
+            )),
+        };
+        let ego = world.ego_start();
+        let common = config.common();
+        let mut episode = Episode {
+            spec,
+            disposition,
+            goal_s: world.goal_s(),
+            world,
+            ego,
+            start_s: ego.s,
+            speed_limit: common.speed_limit_mps,
+            turn_budget: common.turn_budget,
+            turn: 0,
+            step: 0,
+            held: None,
+            outcome: None,
+            observation: placeholder_observation(spec.scenario),
+            decisions: Vec::with_capacity(common.turn_budget as usize),
+            trajectory: None,
+            tracker: Tracker { min_gap_m: f64::INFINITY, ..Tracker::default() },
+        };
+        episode.observe();
+        episode
+    }
+
+    /// Keep plan-view positions at every decision (for trajectory plots).
+    pub fn record_trajectory(&mut self) {
+        if self.trajectory.is_none() {
+            self.trajectory = Some(vec![self.trajectory_point()]);
+        }
+    }
+
+    pub fn spec(&self) -> EpisodeSpec {
+        self.spec
+    }
+
+    /// The public observation for the next decision.
+    pub fn observation(&self) -> &Observation {
+        &self.observation
+    }
+
+    pub fn outcome(&self) -> Option<Outcome> {
+        self.outcome
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.outcome.is_some()
+    }
+
+    /// Privileged: the hidden disposition. Policies never get an episode,
+    /// only its observation.
+    pub fn disposition(&self) -> Disposition {
+        self.disposition
+    }
+
+    /// Privileged: whether the other agent's motion has started to depend on
+    /// its disposition.
+    pub fn revealed(&self) -> bool {
+        self.world.revealed()
+    }
+
+    fn observe(&mut self) {
+        let scene = self.world.observe(&self.ego);
+        self.observation = Observation {
+            scenario: self.spec.scenario,
+            time_s: self.time(),
+            turn: self.turn + 1,
+            turn_budget: self.turn_budget,
+            ego: EgoView {
+                speed_mps: self.ego.v,
+                accel_mps2: self.ego.a,
+                to_goal_m: self.goal_s - self.ego.s,
+                speed_limit_mps: self.speed_limit,
+            },
+            scene,
+            last_action: self.held,
+        };
+    }
+
+    fn time(&self) -> f64 {
+        self.step as f64 * DT
+    }
+
+    fn trajectory_point(&self) -> TrajectoryPoint {
+        TrajectoryPoint { time_s: self.time(), agents: self.world.plan(&self.ego) }
+    }
+
+    /// Apply one decision: hold `action` for `DECISION_INTERVAL` physics
+    /// steps (fewer if the episode ends), then observe. Returns the outcome
+    /// once the episode is over; stepping a finished episode does nothing.
+    pub fn step(&mut self, action: Action) -> Option<Outcome> {
+        if self.outcome.is_some() {
+            return self.outcome;
+        }
+        let action = sanitize(action);
+        self.decisions.push(DecisionRecord {
+            turn: self.turn + 1,
+            time_s: self.time(),
+            action,
+            after_resolution: self.world.resolved(&self.ego),
+        });
+        let control = action.control();
+        let prev_interval_accel = self.tracker.last_interval_accel;
+        self.tracker.interval_accel_sum = 0.0;
+        let mut steps_this_turn = 0;
+        for _ in 0..DECISION_INTERVAL {
+            let t = self.time();
+            let a_cmd = control.acceleration(self.ego.v, self.speed_limit, DT).clamp(-EGO_MAX_BRAKE, EGO_MAX_ACCEL);
+            self.ego.advance(a_cmd, DT);
+            self.world.advance(&self.ego, &action, t, DT);
+            self.step += 1;
+            steps_this_turn += 1;
+            self.track_step();
+            let contact = self.world.contact(&self.ego);
+            self.tracker.min_gap_m = self.tracker.min_gap_m.min(contact.gap_m);
+            if let Some(ttc) = contact.ttc_s {
+                self.tracker.min_ttc_s = Some(self.tracker.min_ttc_s.map_or(ttc, |m| m.min(ttc)));
+            }
+            if contact.collision {
+                self.outcome = Some(Outcome::Collision);
+                break;
+            }
+            if self.ego.s >= self.goal_s {
+                self.tracker.time_to_goal_s = Some(self.time());
+                self.outcome = Some(Outcome::Success);
+                break;
+            }
+        }
+        // Jerk over decision intervals: change of mean acceleration.
+        let mean_accel = self.tracker.interval_accel_sum / steps_this_turn as f64;
+        if let Some(prev) = prev_interval_accel {
+            let jerk = (mean_accel - prev) / (DT * DECISION_INTERVAL as f64);
+            self.tracker.peak_jerk = self.tracker.peak_jerk.max(jerk.abs());
+            self.tracker.intervals += 1;
+            if jerk.abs() <= grading::COMFORT_MAX_JERK {
+                self.tracker.jerk_ok_intervals += 1;
+            }
+        }
+        self.tracker.last_interval_accel = Some(mean_accel);
+        self.turn += 1;
+        self.held = Some(action);
+        if self.outcome.is_none() && self.turn >= self.turn_budget {
+            self.outcome = Some(Outcome::Timeout);
+        }
+        if self.outcome.is_none() {
+            self.observe();
+        }
+        if let Some(traj) = self.trajectory.as_mut() {
+            traj.push(TrajectoryPoint { time_s: self.step as f64 * DT, agents: self.world.plan(&self.ego) });
+        }
+        self.outcome
+    }
+
+    fn track_step(&mut self) {
+        let a = self.ego.a;
+        let tr = &mut self.tracker;
+        tr.steps += 1;
+        tr.interval_accel_sum += a;
+        tr.peak_accel = tr.peak_accel.max(a);
+        tr.peak_decel = tr.peak_decel.max(-a);
+        if (grading::COMFORT_MIN_ACCEL..=grading::COMFORT_MAX_ACCEL).contains(&a) {
+            tr.comfortable_steps += 1;
+        }
+        let hard = a < grading::HARD_BRAKE;
+        if hard && !tr.braking_hard {
+            tr.hard_brakes += 1;
+        }
+        tr.braking_hard = hard;
+        let cutting = self.world.cuts_off(&self.ego);
+        if cutting && !tr.cutting_off {
+            tr.row_violations += 1;
+        }
+        tr.cutting_off = cutting;
+    }
+
+    /// Grade the finished (or abandoned) episode. An episode stopped before
+    /// its end is graded as a timeout at the current state.
+    pub fn finish(self) -> EpisodeRecord {
+        let outcome = self.outcome.unwrap_or(Outcome::Timeout);
+        let tr = &self.tracker;
+        let span = self.goal_s - self.start_s;
+        let progress = ((self.ego.s - self.start_s) / span).clamp(0.0, 1.0);
+        let free_flow_time_s = span / self.speed_limit;
+        let efficiency = tr.time_to_goal_s.map_or(0.0, |t| (free_flow_time_s / t).min(1.0));
+        let comfort = if tr.steps == 0 {
+            1.0
+        } else {
+            let accel_ok = tr.comfortable_steps as f64 / tr.steps as f64;
+            let jerk_ok = if tr.intervals == 0 { 1.0 } else { tr.jerk_ok_intervals as f64 / tr.intervals as f64 };
+            0.5 * (accel_ok + jerk_ok)
+        };
+        let diagnostics = Diagnostics {
+            min_ttc_s: tr.min_ttc_s,
+            min_gap_m: tr.min_gap_m,
+            hard_brakes: tr.hard_brakes,
+            right_of_way_violations: tr.row_violations,
+            time_to_goal_s: tr.time_to_goal_s,
+            free_flow_time_s,
+            efficiency,
+            progress,
+            peak_accel_mps2: tr.peak_accel,
+            peak_decel_mps2: tr.peak_decel,
+            peak_jerk_mps3: tr.peak_jerk,
+            comfort,
+            decisions: self.turn,
+            duration_s: self.time(),
+        };
+        let grades = Grades {
+            reward: grading::compute_episode_reward(outcome, &diagnostics),
+            decision_correctness: grading::decision_correctness(self.disposition, &self.decisions),
+            diagnostics,
+        };
+        EpisodeRecord {
+            spec: self.spec,
+            disposition: self.disposition,
+            outcome,
+            grades,
+            decisions: self.decisions,
+            trajectory: self.trajectory,
+        }
+    }
+}
+
+/// Non-finite numbers from a policy become the conservative action; the
+/// magnitude is clamped to its documented range.
+fn sanitize(a: Action) -> Action {
+    if !a.acceleration.is_finite() {
+        return Action::CONSERVATIVE;
+    }
+    Action { acceleration: a.acceleration.clamp(-1.0, 1.0), steering: if a.steering.is_finite() { a.steering } else { 0.0 }, ..a }
+}
+
+fn placeholder_observation(scenario: ScenarioKind) -> Observation {
+    use crate::observation::{Sample, Scene, Track};
+    let t = Track { now: Sample { position_m: 0.0, velocity_mps: 0.0 }, past: [Sample { position_m: 0.0, velocity_mps: 0.0 }; 4] };
+    Observation {
+        scenario,
+        time_s: 0.0,
+        turn: 1,
+        turn_budget: 1,
+        ego: EgoView { speed_mps: 0.0, accel_mps2: 0.0, to_goal_m: 0.0, speed_limit_mps: 0.0 },
+        scene: Scene::YieldStandoff { ego_to_conflict_m: 0.0, other: t },
+        last_action: None,
+    }
+}
+
+/// A graded episode with its privileged facts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRecord {
+    pub spec: EpisodeSpec,
+    pub disposition: Disposition,
+    pub outcome: Outcome,
+    pub grades: Grades,
+    pub decisions: Vec<DecisionRecord>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub trajectory: Option<Vec<TrajectoryPoint>>,
+}
+
+/// Play one whole episode with an in-process policy.
+pub fn run_episode(config: &ScenarioConfig, tier: Tier, seed: u64, policy: &mut dyn crate::policy::Policy) -> EpisodeRecord {
+    let mut episode = Episode::new(config, tier, seed);
+    policy.reset(policy_seed(episode.spec()));
+    while !episode.is_done() {
+        let action = policy.act(episode.observation());
+        episode.step(action);
+    }
+    episode.finish()
+}

@@ -1,0 +1,149 @@
+//! Graders. They read privileged state (the disposition, the trajectory) and
+//! the actions taken; never the reasoning text.
+
+use crate::episode::{DecisionRecord, Outcome};
+use crate::scenario::Disposition;
+use serde::{Deserialize, Serialize};
+
+/// nuPlan comfort bounds on longitudinal acceleration (m/s^2) and jerk (m/s^3).
+pub const COMFORT_MIN_ACCEL: f64 = -4.05;
+pub const COMFORT_MAX_ACCEL: f64 = 2.40;
+pub const COMFORT_MAX_JERK: f64 = 4.13;
+/// A step braking harder than this starts a hard-brake event (m/s^2).
+pub const HARD_BRAKE: f64 = -4.05;
+/// Decisions in the correctness window: the agent's last choices before the
+/// go / give-way question is settled.
+pub const CORRECTNESS_WINDOW: usize = 2;
+
+/// Per-episode diagnostics (SPEC section 4).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Diagnostics {
+    /// Smallest time to collision at constant speeds seen at any step (s).
+    pub min_ttc_s: Option<f64>,
+    /// Smallest clearance between the ego's box and another box (m).
+    pub min_gap_m: f64,
+    /// Distinct episodes of braking harder than 4.05 m/s^2.
+    pub hard_brakes: u32,
+    /// Times the ego entered the conflict zone while the other had the way.
+    pub right_of_way_violations: u32,
+    pub time_to_goal_s: Option<f64>,
+    /// Start-to-goal distance at the speed limit (s).
+    pub free_flow_time_s: f64,
+    /// free-flow time / time to goal (0 without reaching the goal).
+    pub efficiency: f64,
+    /// Fraction of the start-to-goal distance covered.
+    pub progress: f64,
+    pub peak_accel_mps2: f64,
+    pub peak_decel_mps2: f64,
+    pub peak_jerk_mps3: f64,
+    /// Mean of the fraction of steps within nuPlan's acceleration bounds and
+    /// the fraction of decision intervals within its jerk bound.
+    pub comfort: f64,
+    pub decisions: u32,
+    pub duration_s: f64,
+}
+
+/// Scores of one episode.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Grades {
+    pub reward: f64,
+    pub decision_correctness: f64,
+    pub diagnostics: Diagnostics,
+}
+
+/// Bounded, lexicographic reward in [-1, 1]:
+/// - collision: -1;
+/// - timeout: -0.5 + 0.8 * progress, so in [-0.5, 0.3];
+/// - success: 0.8 + 0.1 * efficiency + 0.1 * comfort, so in [0.8, 1.0].
+///
+/// Every collision is below every timeout, which is below every success.
+pub fn compute_episode_reward(outcome: Outcome, d: &Diagnostics) -> f64 {
+    match outcome {
+        Outcome::Collision => -1.0,
+        Outcome::Timeout => -0.5 + 0.8 * d.progress.clamp(0.0, 1.0),
+        Outcome::Success => 0.8 + 0.1 * d.efficiency.clamp(0.0, 1.0) + 0.1 * d.comfort.clamp(0.0, 1.0),
+    }
+}
+
+/// Agreement between the agent's final go / give-way choices and what the
+/// hidden disposition requires, in [0, 1].
+///
+/// The window is the last `CORRECTNESS_WINDOW` decisions taken before the
+/// question was settled (the first moment either road user entered the
+/// conflict zone); if it never was, the episode's last decisions. A decision
+/// is "go" when its maneuver is `proceed` and "give way" otherwise (`yield`,
+/// `stop`, `nudge_forward`). Committed cars and crossers require give way;
+/// yielders, feinters and cars that make room require go. The score is the
+/// fraction of the window that matches.
+pub fn decision_correctness(disposition: Disposition, decisions: &[DecisionRecord]) -> f64 {
+    let unresolved = decisions.iter().take_while(|d| !d.after_resolution).count();
+    let window_end = if unresolved == 0 { decisions.len() } else { unresolved };
+    let window = &decisions[window_end.saturating_sub(CORRECTNESS_WINDOW)..window_end];
+    if window.is_empty() {
+        return 0.0;
+    }
+    let want_go = disposition.ego_should_go();
+    let matches = window.iter().filter(|d| d.action.maneuver.is_go() == want_go).count();
+    matches as f64 / window.len() as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::action::{Action, Maneuver};
+
+    fn diag(progress: f64, efficiency: f64, comfort: f64) -> Diagnostics {
+        Diagnostics {
+            min_ttc_s: None,
+            min_gap_m: 1.0,
+            hard_brakes: 0,
+            right_of_way_violations: 0,
+            time_to_goal_s: None,
+            free_flow_time_s: 5.0,
+            efficiency,
+            progress,
+            peak_accel_mps2: 0.0,
+            peak_decel_mps2: 0.0,
+            peak_jerk_mps3: 0.0,
+            comfort,
+            decisions: 1,
+            duration_s: 1.0,
+        }
+    }
+
+    #[test]
+    fn reward_is_lexicographic_at_the_extremes() {
+        let worst_success = compute_episode_reward(Outcome::Success, &diag(1.0, 0.0, 0.0));
+        let best_timeout = compute_episode_reward(Outcome::Timeout, &diag(1.0, 1.0, 1.0));
+        let worst_timeout = compute_episode_reward(Outcome::Timeout, &diag(0.0, 0.0, 0.0));
+        let collision = compute_episode_reward(Outcome::Collision, &diag(1.0, 1.0, 1.0));
+        assert_eq!(worst_success, 0.8);
+        assert!(best_timeout < worst_success);
+        assert!(collision < worst_timeout);
+        assert_eq!(compute_episode_reward(Outcome::Success, &diag(1.0, 1.0, 1.0)), 1.0);
+    }
+
+    fn decision(turn: u32, m: Maneuver, after: bool) -> DecisionRecord {
+        DecisionRecord { turn, time_s: 0.5 * turn as f64, action: Action::new(m, 0.0), after_resolution: after }
+    }
+
+    #[test]
+    fn correctness_reads_the_last_choices_before_resolution() {
+        use Maneuver::*;
+        let ds = vec![
+            decision(1, Proceed, false),
+            decision(2, Yield, false),
+            decision(3, Stop, false),
+            decision(4, Proceed, true),
+        ];
+        // Gave way in the window: right for a committed car, wrong for a yielder.
+        assert_eq!(decision_correctness(Disposition::Committed, &ds), 1.0);
+        assert_eq!(decision_correctness(Disposition::Yielder, &ds), 0.0);
+        let mixed = vec![decision(1, Yield, false), decision(2, Proceed, false), decision(3, Proceed, true)];
+        assert_eq!(decision_correctness(Disposition::Yielder, &mixed), 0.5);
+        // Never resolved: the last decisions count.
+        let stalled = vec![decision(1, Proceed, false), decision(2, NudgeForward, false), decision(3, Stop, false)];
+        assert_eq!(decision_correctness(Disposition::Feinter, &stalled), 0.0);
+        assert_eq!(decision_correctness(Disposition::Crosser, &stalled), 1.0);
+    }
+}

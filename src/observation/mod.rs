@@ -1,0 +1,151 @@
+//! The public observation: everything a policy, the prompt and the text
+//! renderer may see. It is built by the simulator from public state only;
+//! nothing in it is derived from the hidden disposition except through the
+//! other agent's visible motion.
+
+mod parse;
+mod render;
+
+pub use parse::{SceneParseError, parse_scene};
+pub use render::render_scene;
+
+use crate::action::Action;
+use crate::scenario::ScenarioKind;
+use serde::{Deserialize, Serialize};
+
+/// Past samples of the other agent kept in an observation: t-2.0, t-1.5,
+/// t-1.0 and t-0.5 s, oldest first.
+pub const HISTORY_LEN: usize = 4;
+/// Seconds between two history samples (one decision).
+pub const HISTORY_SPACING_S: f64 = 0.5;
+
+/// Position and velocity of the other agent at one instant, in the
+/// scenario's frame (see [`Scene`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    pub position_m: f64,
+    pub velocity_mps: f64,
+}
+
+/// The other agent now and over the last two seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Track {
+    pub now: Sample,
+    pub past: [Sample; HISTORY_LEN],
+}
+
+impl Track {
+    /// Mean acceleration over the last half second.
+    pub fn recent_accel(&self) -> f64 {
+        (self.now.velocity_mps - self.past[HISTORY_LEN - 1].velocity_mps) / HISTORY_SPACING_S
+    }
+    /// Mean acceleration over the whole history window.
+    pub fn window_accel(&self) -> f64 {
+        (self.now.velocity_mps - self.past[0].velocity_mps) / (HISTORY_SPACING_S * HISTORY_LEN as f64)
+    }
+    /// Slowest speed magnitude seen in the window (including now).
+    pub fn min_speed(&self) -> f64 {
+        self.past.iter().map(|s| s.velocity_mps.abs()).fold(self.now.velocity_mps.abs(), f64::min)
+    }
+}
+
+/// Scenario-specific geometry, all distances in metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "scenario", rename_all = "snake_case")]
+pub enum Scene {
+    /// `ego_to_conflict_m`: the ego's front bumper to the crossing lane's
+    /// near edge. `other.position_m`: the other car's front bumper to the
+    /// ego lane's near edge (negative once it has entered; it has cleared
+    /// the conflict zone below -`CONFLICT_ZONE_M`).
+    YieldStandoff { ego_to_conflict_m: f64, other: Track },
+    /// `ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's
+    /// crossing line. `pedestrian.position_m`: lateral position from the
+    /// near kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far
+    /// edge of the ego lane); `velocity_mps` positive when moving into the
+    /// road.
+    PedestrianFeint { ego_to_crosswalk_m: f64, pedestrian: Track },
+    /// `ego_to_merge_m`: the ego's centre to the point where its body starts
+    /// to overlap the main lane; `ramp_left_m` to the end of the ramp.
+    /// `lane_car.position_m` / `follower.position_m`: their centre relative
+    /// to the ego's centre along the road (positive ahead of the ego).
+    ContestedMerge { ego_to_merge_m: f64, ramp_left_m: f64, lane_car: Track, follower: Track },
+}
+
+/// The ego's own state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EgoView {
+    pub speed_mps: f64,
+    pub accel_mps2: f64,
+    pub to_goal_m: f64,
+    pub speed_limit_mps: f64,
+}
+
+/// What a policy sees at one decision.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Observation {
+    pub scenario: ScenarioKind,
+    pub time_s: f64,
+    /// 1-based index of this decision.
+    pub turn: u32,
+    pub turn_budget: u32,
+    pub ego: EgoView,
+    pub scene: Scene,
+    /// The action held over the last half second (None on the first turn).
+    pub last_action: Option<Action>,
+}
+
+impl Observation {
+    pub fn turns_left(&self) -> u32 {
+        self.turn_budget.saturating_sub(self.turn) + 1
+    }
+
+    /// Every number in the observation rounded to the precision the text
+    /// renderer prints, so that `parse(render(o)) == o.rounded()`.
+    pub fn rounded(&self) -> Observation {
+        let r1 = |x: f64| round_to(x, 1);
+        let track = |t: Track| Track {
+            now: Sample { position_m: r1(t.now.position_m), velocity_mps: r1(t.now.velocity_mps) },
+            past: t.past.map(|s| Sample { position_m: r1(s.position_m), velocity_mps: r1(s.velocity_mps) }),
+        };
+        let scene = match self.scene {
+            Scene::YieldStandoff { ego_to_conflict_m, other } => {
+                Scene::YieldStandoff { ego_to_conflict_m: r1(ego_to_conflict_m), other: track(other) }
+            }
+            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
+                Scene::PedestrianFeint { ego_to_crosswalk_m: r1(ego_to_crosswalk_m), pedestrian: track(pedestrian) }
+            }
+            Scene::ContestedMerge { ego_to_merge_m, ramp_left_m, lane_car, follower } => Scene::ContestedMerge {
+                ego_to_merge_m: r1(ego_to_merge_m),
+                ramp_left_m: r1(ramp_left_m),
+                lane_car: track(lane_car),
+                follower: track(follower),
+            },
+        };
+        Observation {
+            scenario: self.scenario,
+            time_s: r1(self.time_s),
+            turn: self.turn,
+            turn_budget: self.turn_budget,
+            ego: EgoView {
+                speed_mps: r1(self.ego.speed_mps),
+                accel_mps2: r1(self.ego.accel_mps2),
+                to_goal_m: r1(self.ego.to_goal_m),
+                speed_limit_mps: r1(self.ego.speed_limit_mps),
+            },
+            scene,
+            last_action: self.last_action.map(|a| Action {
+                maneuver: a.maneuver,
+                acceleration: round_to(a.acceleration.clamp(-1.0, 1.0), 2),
+                steering: 0.0,
+            }),
+        }
+    }
+}
+
+/// Round half away from zero to `digits` decimals, and never return -0.0
+/// (so the text never shows "-0.0").
+pub fn round_to(x: f64, digits: i32) -> f64 {
+    let scale = 10f64.powi(digits);
+    let r = (x * scale).round() / scale;
+    if r == 0.0 { 0.0 } else { r }
+}

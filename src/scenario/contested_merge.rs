@@ -1,0 +1,373 @@
+//! `contested_merge`: an on-ramp merge (a coordination game). The lane car
+//! alongside the ego `makes_room` (drops back to open a gap ahead of itself)
+//! or is `committed` (holds its speed; in tier 3 it first opens the gap and
+//! closes it when the ego commits). A second car follows the lane car, so
+//! merging behind is right only when the lane car goes first.
+//!
+//! Frame: the through lane runs along +x at y = 0; the ramp is parallel at
+//! y = -LANE_OFFSET and tapers into the lane over `road.taper_length_m`
+//! starting at x = 0. The ego's lateral position is derived from its
+//! progress, as a merge assist would steer it.
+
+use super::world::{Contact, History, PlanPoint, ROW_MARGIN_S, World, car_box};
+use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
+use crate::action::{Action, Maneuver};
+use crate::observation::{Sample, Scene};
+use crate::rng::EpisodeRng;
+use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, Idm, track_speed, travel_time};
+use serde::{Deserialize, Serialize};
+
+const LANE_OFFSET: f64 = 3.5;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeParams {
+    pub episode: Common,
+    pub ego: MergeEgo,
+    pub road: MergeRoad,
+    pub lane: MergeLane,
+    pub idm: Idm,
+    pub tier2: MergeTier2,
+    pub tier3: MergeTier3,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeEgo {
+    /// Ego centre to the merge point at t = 0 (m).
+    pub start_distance_m: Range,
+    pub start_speed_mps: Range,
+    /// Goal: this far past the end of the ramp (m).
+    pub goal_past_ramp_end_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeRoad {
+    /// Length over which the ramp tapers into the lane (m).
+    pub taper_length_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeLane {
+    pub cruise_speed_mps: Range,
+    /// Lane car's centre relative to a full-throttle ego reaching the merge
+    /// point (m): near zero makes "always proceed" sideswipe a committed car.
+    pub alongside_offset_m: Range,
+    /// Follower's centre behind the lane car's centre at t = 0 (m).
+    pub follower_gap_m: Range,
+    /// Deceleration with which a car opens a gap for the ego (m/s^2).
+    pub open_decel_mps2: f64,
+    /// A yielding lane car that has crawled this long gives up and drives on (s).
+    pub patience_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeTier2 {
+    /// Standard deviation of the noise on observed lane-car positions (m).
+    pub position_noise_m: f64,
+    /// Standard deviation of the noise on observed lane-car speeds (m/s).
+    pub speed_noise_mps: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MergeTier3 {
+    /// A bluffing car opens the gap only down to this fraction of its cruise speed.
+    pub floor_fraction: f64,
+    /// ... holds that speed this long, then drives on if the ego has not committed (s).
+    pub hold_s: f64,
+    /// The ego commits when it proceeds while due at the merge point within this (s).
+    pub commit_horizon_s: f64,
+    /// The bluffer closes the gap this hard (m/s^2).
+    pub close_accel_mps2: f64,
+}
+
+impl MergeParams {
+    pub(crate) fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
+        self.episode.validate(c)?;
+        c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
+        c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.0, self.episode.speed_limit_mps)?;
+        c.within("ego.goal_past_ramp_end_m", self.ego.goal_past_ramp_end_m, 0.0, 200.0)?;
+        c.within("road.taper_length_m", self.road.taper_length_m, 5.0, 100.0)?;
+        c.range_within("lane.cruise_speed_mps", self.lane.cruise_speed_mps, 1.0, 25.0)?;
+        c.range_within("lane.alongside_offset_m", self.lane.alongside_offset_m, -20.0, 20.0)?;
+        c.range_within("lane.follower_gap_m", self.lane.follower_gap_m, CAR_LENGTH + 1.0, 200.0)?;
+        c.within("lane.open_decel_mps2", self.lane.open_decel_mps2, 0.3, 6.0)?;
+        c.non_negative("lane.patience_s", self.lane.patience_s)?;
+        c.within("idm.accel", self.idm.accel, 0.3, 5.0)?;
+        c.within("idm.brake", self.idm.brake, 0.5, 8.0)?;
+        c.within("idm.headway", self.idm.headway, 0.1, 5.0)?;
+        c.within("idm.min_gap", self.idm.min_gap, 0.0, 20.0)?;
+        c.within("idm.max_brake", self.idm.max_brake, self.idm.brake, 12.0)?;
+        c.non_negative("tier2.position_noise_m", self.tier2.position_noise_m)?;
+        c.non_negative("tier2.speed_noise_mps", self.tier2.speed_noise_mps)?;
+        c.within("tier3.floor_fraction", self.tier3.floor_fraction, 0.0, 1.0)?;
+        c.non_negative("tier3.hold_s", self.tier3.hold_s)?;
+        c.within("tier3.commit_horizon_s", self.tier3.commit_horizon_s, 0.1, 5.0)?;
+        c.within("tier3.close_accel_mps2", self.tier3.close_accel_mps2, 0.5, 6.0)
+    }
+
+    /// Ego centre x at which its body starts to overlap the lane.
+    pub fn merge_point(&self) -> f64 {
+        self.road.taper_length_m * (1.0 - CAR_WIDTH / LANE_OFFSET)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// Holding the lane at cruise speed (committed, tiers 1-2).
+    Hold,
+    /// Dropping back behind the ego.
+    Open { crawling_since: Option<f64>, floor_since: Option<f64> },
+    /// Closing the gap after a bluff.
+    Close,
+    /// Driving on, reacting only to a car physically ahead in the lane.
+    Drive,
+}
+
+pub struct MergeWorld {
+    tier: Tier,
+    disposition: Disposition,
+    params: MergeParams,
+    merge_point: f64,
+    ego_start: Body,
+    lane_car: Body,
+    follower: Body,
+    cruise: f64,
+    phase: Phase,
+    revealed: bool,
+    noise: Option<EpisodeRng>,
+    lane_history: History,
+    follower_history: History,
+}
+
+impl MergeWorld {
+    pub fn new(
+        params: &MergeParams,
+        tier: Tier,
+        disposition: Disposition,
+        geometry: &mut EpisodeRng,
+        noise: EpisodeRng,
+    ) -> Self {
+        let merge_point = params.merge_point();
+        let d_ego = params.ego.start_distance_m.sample(geometry);
+        let v_ego = params.ego.start_speed_mps.sample(geometry);
+        let cruise = params.lane.cruise_speed_mps.sample(geometry);
+        let offset = params.lane.alongside_offset_m.sample(geometry);
+        let follower_gap = params.lane.follower_gap_m.sample(geometry);
+        let t_ego = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
+        let x_lane = merge_point + offset - cruise * t_ego;
+        let ego_start = Body::new(merge_point - d_ego, v_ego);
+        let phase = match (tier, disposition) {
+            (Tier::T1 | Tier::T2, Disposition::Committed) => Phase::Hold,
+            _ => Phase::Open { crawling_since: None, floor_since: None },
+        };
+        let rel_rate = cruise - v_ego;
+        let lane_history = History::steady(Sample { position_m: x_lane - ego_start.s, velocity_mps: cruise }, rel_rate);
+        let follower_history =
+            History::steady(Sample { position_m: x_lane - follower_gap - ego_start.s, velocity_mps: cruise }, rel_rate);
+        let mut world = MergeWorld {
+            tier,
+            disposition,
+            params: params.clone(),
+            merge_point,
+            ego_start,
+            lane_car: Body::new(x_lane, cruise),
+            follower: Body::new(x_lane - follower_gap, cruise),
+            cruise,
+            phase,
+            revealed: tier != Tier::T3,
+            noise: (tier == Tier::T2).then_some(noise),
+            lane_history,
+            follower_history,
+        };
+        // The steady history before t = 0 is observed through the same noise.
+        if world.noise.is_some() {
+            world.lane_history = History::steady(world.noisy(world.lane_history_now()), rel_rate);
+            world.follower_history = History::steady(world.noisy(world.follower_history_now()), rel_rate);
+        }
+        world
+    }
+
+    fn lane_history_now(&self) -> Sample {
+        Sample { position_m: self.lane_car.s - self.ego_start.s, velocity_mps: self.lane_car.v }
+    }
+
+    fn follower_history_now(&self) -> Sample {
+        Sample { position_m: self.follower.s - self.ego_start.s, velocity_mps: self.follower.v }
+    }
+
+    fn noisy(&mut self, s: Sample) -> Sample {
+        let (sp, sv) = (self.params.tier2.position_noise_m, self.params.tier2.speed_noise_mps);
+        match self.noise.as_mut() {
+            Some(rng) => Sample {
+                position_m: s.position_m + sp * rng.standard_noise(),
+                velocity_mps: (s.velocity_mps + sv * rng.standard_noise()).max(0.0),
+            },
+            None => s,
+        }
+    }
+
+    fn ego_y(&self, x: f64) -> f64 {
+        let taper = self.params.road.taper_length_m;
+        let f = (x / taper).clamp(0.0, 1.0);
+        -LANE_OFFSET * (1.0 - f)
+    }
+
+    /// Whether the ego's body overlaps the through lane.
+    fn ego_in_lane(&self, ego: &Body) -> bool {
+        ego.s > self.merge_point
+    }
+
+    /// IDM leader (bumper gap, speed difference) for a lane car at `car`:
+    /// the nearest of `ahead` and the ego when the ego is in the lane ahead.
+    fn leader(&self, car: &Body, ahead: Option<&Body>, ego: &Body) -> Option<(f64, f64)> {
+        let mut best: Option<(f64, f64)> = None;
+        let mut consider = |other: &Body| {
+            let gap = other.s - car.s - CAR_LENGTH;
+            if other.s > car.s && best.is_none_or(|(g, _)| gap < g) {
+                best = Some((gap, car.v - other.v));
+            }
+        };
+        if let Some(a) = ahead {
+            consider(a);
+        }
+        if self.ego_in_lane(ego) {
+            consider(ego);
+        }
+        best
+    }
+
+    fn lane_car_accel(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) -> f64 {
+        let idm = self.params.idm;
+        let lane = self.lane_car;
+        let drive = |w: &Self| idm.accel(lane.v, w.cruise, w.leader(&lane, None, ego));
+        match self.phase {
+            Phase::Hold | Phase::Drive => drive(self),
+            Phase::Close => track_speed(lane.v, self.cruise + 2.0, self.params.tier3.close_accel_mps2, 3.0, dt),
+            Phase::Open { crawling_since, floor_since } => {
+                let bluffing = self.disposition == Disposition::Committed;
+                let floor = self.params.tier3.floor_fraction * self.cruise;
+                let ego_to_merge = self.merge_point - ego.s;
+                let ego_commits = ego_action.maneuver == Maneuver::Proceed
+                    && ego_to_merge > 0.0
+                    && ego_to_merge < self.params.tier3.commit_horizon_s * ego.v.max(0.1);
+                if !self.revealed && (ego_commits || lane.v <= floor) {
+                    self.revealed = true;
+                }
+                if bluffing {
+                    if ego_commits {
+                        self.phase = Phase::Close;
+                        return self.params.tier3.close_accel_mps2;
+                    }
+                    if lane.v <= floor {
+                        let since = floor_since.unwrap_or(t);
+                        self.phase = Phase::Open { crawling_since, floor_since: Some(since) };
+                        if t - since >= self.params.tier3.hold_s {
+                            self.phase = Phase::Drive;
+                        }
+                        return 0.0;
+                    }
+                }
+                // Treat the ego as a leader to drop in behind it.
+                let gap = ego.s - lane.s - CAR_LENGTH;
+                let a = idm.accel(lane.v, self.cruise, Some((gap.max(0.5), lane.v - ego.v)));
+                let a = if gap < 0.0 { a.max(-self.params.lane.open_decel_mps2) } else { a };
+                let crawling = lane.v < 1.0;
+                let since = if crawling { Some(crawling_since.unwrap_or(t)) } else { None };
+                self.phase = Phase::Open { crawling_since: since, floor_since };
+                if since.is_some_and(|s| t - s >= self.params.lane.patience_s) {
+                    self.phase = Phase::Drive;
+                }
+                a
+            }
+        }
+    }
+}
+
+impl World for MergeWorld {
+    fn ego_start(&self) -> Body {
+        self.ego_start
+    }
+
+    fn goal_s(&self) -> f64 {
+        self.params.road.taper_length_m + self.params.ego.goal_past_ramp_end_m
+    }
+
+    fn advance(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) {
+        let a_lane = self.lane_car_accel(ego, ego_action, t, dt);
+        let leader = self.leader(&self.follower, Some(&self.lane_car), ego);
+        let a_follow = self.params.idm.accel(self.follower.v, self.cruise, leader);
+        self.lane_car.advance(a_lane, dt);
+        self.follower.advance(a_follow, dt);
+    }
+
+    fn contact(&self, ego: &Body) -> Contact {
+        let e = car_box(ego.s, self.ego_y(ego.s), true);
+        let mut contact = Contact { gap_m: f64::INFINITY, ttc_s: None, collision: false };
+        for car in [&self.lane_car, &self.follower] {
+            let c = car_box(car.s, 0.0, true);
+            contact.gap_m = contact.gap_m.min(e.gap(&c));
+            contact.collision |= e.overlaps(&c);
+            if self.ego_in_lane(ego) {
+                // Same-lane closing time, whichever car is behind.
+                let (rear, front) = if car.s < ego.s { (car, ego) } else { (ego, car) };
+                let gap = front.s - rear.s - CAR_LENGTH;
+                let closing = rear.v - front.v;
+                if closing > 0.0 && gap > 0.0 {
+                    let ttc = gap / closing;
+                    contact.ttc_s = Some(contact.ttc_s.map_or(ttc, |t: f64| t.min(ttc)));
+                }
+            }
+        }
+        contact
+    }
+
+    fn observe(&mut self, ego: &Body) -> Scene {
+        let lane = Sample { position_m: self.lane_car.s - ego.s, velocity_mps: self.lane_car.v };
+        let follower = Sample { position_m: self.follower.s - ego.s, velocity_mps: self.follower.v };
+        let (lane, follower) = (self.noisy(lane), self.noisy(follower));
+        Scene::ContestedMerge {
+            ego_to_merge_m: self.merge_point - ego.s,
+            ramp_left_m: self.params.road.taper_length_m - ego.s,
+            lane_car: self.lane_history.track(lane),
+            follower: self.follower_history.track(follower),
+        }
+    }
+
+    fn disposition(&self) -> Disposition {
+        self.disposition
+    }
+
+    fn revealed(&self) -> bool {
+        self.revealed
+    }
+
+    fn resolved(&self, ego: &Body) -> bool {
+        ego.s >= self.merge_point || self.lane_car.s >= self.merge_point
+    }
+
+    fn cuts_off(&self, ego: &Body) -> bool {
+        if !self.ego_in_lane(ego) {
+            return false;
+        }
+        [&self.lane_car, &self.follower].iter().any(|car| {
+            let alongside = (car.s - ego.s).abs() < CAR_LENGTH;
+            let gap = ego.s - car.s - CAR_LENGTH;
+            let tailgated = car.s < ego.s && car.v > ego.v && gap < (car.v - ego.v) * ROW_MARGIN_S;
+            alongside || tailgated
+        })
+    }
+
+    fn plan(&self, ego: &Body) -> Vec<PlanPoint> {
+        vec![
+            PlanPoint { x: ego.s, y: self.ego_y(ego.s), v: ego.v },
+            PlanPoint { x: self.lane_car.s, y: 0.0, v: self.lane_car.v },
+            PlanPoint { x: self.follower.s, y: 0.0, v: self.follower.v },
+        ]
+    }
+}
+

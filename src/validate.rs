@@ -1,0 +1,1 @@
+//! Benchmark invariants (to be written).
