@@ -21,3 +21,6 @@ pub mod sim;
 pub mod stats;
 pub mod validate;
 pub mod cli;
+pub mod eval;
+pub mod llm;
+pub mod serve;

@@ -135,8 +135,12 @@ pub fn parse_action(text: &str) -> ParsedAction {
     if let Some(found) = scan.answer_region.and_then(non_object_kind) {
         return ParsedAction::degraded(None, vec![ActionParseError::NotAnObject { found: found.to_string() }]);
     }
-    let chosen =
-        scan.candidates.iter().rev().find(|fields| fields.iter().any(|(k, _)| key_is(k, "maneuver"))).or(scan.candidates.last());
+    let chosen = scan
+        .candidates
+        .iter()
+        .rev()
+        .find(|fields| fields.iter().any(|(k, _)| key_is(k, "maneuver")))
+        .or(scan.candidates.last());
     match chosen {
         Some(fields) => evaluate(fields),
         None => ParsedAction::degraded(None, vec![scan.no_candidate_error()]),
@@ -247,6 +251,9 @@ struct Scan<'a> {
     /// Text after the last `</think>` (the whole reply if none), when the
     /// reply does not end inside a think block.
     answer_region: Option<&'a str>,
+    /// Bytes read by all parse attempts (tests check it stays linear).
+    #[cfg_attr(not(test), allow(dead_code))]
+    work: usize,
 }
 
 impl Scan<'_> {
@@ -311,6 +318,7 @@ fn scan(text: &str) -> Scan<'_> {
     // truncated reply) and is no answer.
     let mut failed_reach = 0;
     let mut failed_work = 0usize;
+    let mut work = 0usize;
     let work_budget = b.len().saturating_mul(FAILED_WORK_FACTOR).saturating_add(FAILED_WORK_SLACK);
     let mut in_think = starts_in_think(b);
     let mut unclosed_think = false;
@@ -340,7 +348,9 @@ fn scan(text: &str) -> Scan<'_> {
             Some(b'{') if !dead_starts.contains(i) && failed_work <= work_budget => {
                 object_starts.clear();
                 let mut reader = Reader { s: text, b, pos: i, object_starts: &mut object_starts };
-                match reader.top_object() {
+                let outcome = reader.top_object();
+                work = work.saturating_add(reader.pos.saturating_sub(i) + 1);
+                match outcome {
                     Ok(fields) => {
                         if reader.pos > failed_reach {
                             candidates.push(fields);
@@ -366,7 +376,7 @@ fn scan(text: &str) -> Scan<'_> {
     }
 
     let answer_region = if unclosed_think { None } else { text.get(after_think..) };
-    Scan { candidates, best_failure, unclosed_think, answer_region }
+    Scan { candidates, best_failure, unclosed_think, answer_region, work }
 }
 
 /// If the answer (fences stripped) is one complete JSON value that is not
@@ -424,7 +434,9 @@ enum Val<'a> {
     /// Raw JSON number text (or `NaN` / `Infinity` / `-Infinity`).
     Num(&'a str),
     /// Boolean, array or object, as raw JSON text.
-    Other { raw: &'a str },
+    Other {
+        raw: &'a str,
+    },
 }
 
 impl Val<'_> {
@@ -959,9 +971,14 @@ mod tests {
     fn out_of_range_numbers() {
         let out = |field, value: &str| E::OutOfRange { field, value: value.into() };
         let acc = NumericField::Acceleration;
-        for (raw, quoted) in
-            [("3.0", "3.0"), ("-1.5", "-1.5"), ("1e309", "1e309"), ("\"NaN\"", "NaN"), ("NaN", "NaN"), ("-Infinity", "-Infinity")]
-        {
+        for (raw, quoted) in [
+            ("3.0", "3.0"),
+            ("-1.5", "-1.5"),
+            ("1e309", "1e309"),
+            ("\"NaN\"", "NaN"),
+            ("NaN", "NaN"),
+            ("-Infinity", "-Infinity"),
+        ] {
             let text = format!(r#"{{"maneuver": "proceed", "acceleration": {raw}}}"#);
             assert_degraded(&text, &[out(acc, quoted)]);
         }
@@ -1004,7 +1021,8 @@ mod tests {
 
     #[test]
     fn deep_nesting_is_an_error_not_a_crash() {
-        let deep = format!(r#"{{"maneuver": "stop", "acceleration": 0, "x": {}1{}}}"#, "[".repeat(200), "]".repeat(200));
+        let deep =
+            format!(r#"{{"maneuver": "stop", "acceleration": 0, "x": {}1{}}}"#, "[".repeat(200), "]".repeat(200));
         assert_kind(&deep, "malformed");
         let ok = format!(r#"{{"maneuver": "stop", "acceleration": 0, "x": {}1{}}}"#, "[".repeat(100), "]".repeat(100));
         assert_clean(&ok, act(Maneuver::Stop, 0.0, 0.0));
@@ -1033,26 +1051,24 @@ mod tests {
         let fill = |pat: &str| pat.repeat(MB / pat.len());
         let inputs = [
             fill("{"),
-            fill("}{"),
-            fill("\""),
-            fill("{\""),
+            // Nesting bombs: every `{` opens a deeper object.
             fill("{\"\":"),
-            fill("{\"a\":\"{\","),
-            fill("{\"\":\"{\", \":\":\","),
-            fill("["),
-            fill("<think>"),
-            fill("</think>{"),
-            fill("\\"),
+            // Valid JSON prefix both as is and read from the `{` in its string.
+            format!("{{\"\":\"{{\"{}", fill(",\":\":\",\"")),
             format!("{{\"reasoning\": \"{}", fill("{\\\"")),
+            fill("</think>{"),
+            fill("\"["),
             format!("{{\"maneuver\": \"stop\", \"acceleration\": 0.{}}}", "5".repeat(MB)),
         ];
         let start = std::time::Instant::now();
         for text in &inputs {
             let p = parse_action(text);
             assert!(p.is_clean() || p.action == STOP);
+            // Deterministic check of the linear bound (timing alone is noisy).
+            let work = scan(text).work;
+            assert!(work <= 12 * text.len() + FAILED_WORK_SLACK, "work {work} on {:?}…", &text[..8]);
         }
-        // Quadratic behaviour would take hours; linear takes milliseconds
-        // (generous bound for debug builds on slow machines).
+        // Milliseconds in release; generous for debug builds on slow machines.
         assert!(start.elapsed().as_secs() < 20, "took {:?}", start.elapsed());
         let big = format!(r#"{{"reasoning": "{}", "maneuver": "yield", "acceleration": -0.3}}"#, fill("{x} "));
         assert_clean(&big, act(Maneuver::Yield, -0.3, 0.0));
@@ -1075,9 +1091,33 @@ mod tests {
     fn fragment() -> impl Strategy<Value = String> {
         prop_oneof![
             prop::sample::select(vec![
-                "{", "}", "\"", "\\", "\\\"", "\\u", "<think>", "</think>", "```", "```json\n", ":", ",", "[", "]",
-                "\"maneuver\"", "\"acceleration\"", "\"steering\"", "\"stop\"", "\"proceed\"", "0.5", "-1", "1e309",
-                "NaN", "null", "true", " ", "\n",
+                "{",
+                "}",
+                "\"",
+                "\\",
+                "\\\"",
+                "\\u",
+                "<think>",
+                "</think>",
+                "```",
+                "```json\n",
+                ":",
+                ",",
+                "[",
+                "]",
+                "\"maneuver\"",
+                "\"acceleration\"",
+                "\"steering\"",
+                "\"stop\"",
+                "\"proceed\"",
+                "0.5",
+                "-1",
+                "1e309",
+                "NaN",
+                "null",
+                "true",
+                " ",
+                "\n",
             ])
             .prop_map(String::from),
             any::<String>(),

@@ -32,13 +32,23 @@ fn crossed(t: &Track) -> bool {
     t.now.position_m < -CONFLICT_ZONE_M - 0.5
 }
 
-/// Merge: whether it is safe to slot in behind the lane car, which has
-/// passed, ahead of its follower.
-fn gap_behind_lane_car(lane_car: &Track, follower: &Track, ego_speed: f64) -> bool {
-    let lane_ahead = lane_car.now.position_m > CAR_LENGTH + 2.0;
-    let follower_clear = follower.now.position_m > CAR_LENGTH + 2.0
-        || -follower.now.position_m > CAR_LENGTH + 4.0 + 1.5 * (follower.now.velocity_mps - ego_speed).max(0.0) * 2.0;
-    lane_ahead && follower_clear
+/// Merge: whether the lane has room for the ego now. Cars are placed by
+/// their centre relative to the ego (positive ahead). The car ahead needs a
+/// headway that grows with the closing speed; a car behind must either be far
+/// back or have actually slowed to a crawl (`crawl_ok`), since a car that only
+/// eases off may close the gap again.
+fn lane_has_room(cars: [&Track; 2], ego_speed: f64, crawl_ok: bool) -> bool {
+    cars.iter().all(|t| {
+        let (rel, v) = (t.now.position_m, t.now.velocity_mps);
+        if rel >= 0.0 {
+            let gap = rel - CAR_LENGTH;
+            gap >= 2.0 + 0.8 * ego_speed + 1.5 * (ego_speed - v).max(0.0)
+        } else {
+            let gap = -rel - CAR_LENGTH;
+            let far = gap >= 4.0 + 0.6 * v + 2.0 * (v - ego_speed).max(0.0);
+            far || (crawl_ok && gap >= 1.0 && v < 4.0)
+        }
+    })
 }
 
 impl Policy for Expert {
@@ -58,12 +68,12 @@ impl Policy for Expert {
                 if *d < 0.0 || crossed || walking_away { go() } else { hedge(v, d - WAIT_GAP_M) }
             }
             Scene::ContestedMerge { ego_to_merge_m: d, lane_car, follower, .. } => {
-                let l = lane_car.now;
-                let yielding = l.position_m < -(CAR_LENGTH + 2.0) && l.velocity_mps < 4.0;
-                if *d < 0.0 || gap_behind_lane_car(lane_car, follower, v) || yielding {
+                if lane_has_room([lane_car, follower], v, true) {
                     go()
+                } else if *d < 0.0 {
+                    Action::new(crate::action::Maneuver::Yield, 0.5)
                 } else {
-                    hedge(v, d - 1.0)
+                    hedge(v, d - WAIT_GAP_M)
                 }
             }
         }
@@ -85,11 +95,11 @@ impl Policy for CueFollower {
                 if *d < 0.0 || crossed || !coming { go() } else { hedge(v, d - WAIT_GAP_M) }
             }
             Scene::ContestedMerge { ego_to_merge_m: d, lane_car, follower, .. } => {
-                let giving_way = lane_car.recent_accel() < -0.3 && lane_car.now.position_m < 2.0;
-                if *d < 0.0 || gap_behind_lane_car(lane_car, follower, v) || giving_way {
+                let giving_way = lane_car.recent_accel() < -0.3;
+                if *d < 0.0 || lane_has_room([lane_car, follower], v, true) || giving_way {
                     go()
                 } else {
-                    hedge(v, d - 1.0)
+                    hedge(v, d - WAIT_GAP_M)
                 }
             }
         }

@@ -14,7 +14,7 @@ use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::{Action, Maneuver};
 use crate::observation::{Sample, Scene};
 use crate::rng::EpisodeRng;
-use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, Idm, track_speed, travel_time};
+use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
 use serde::{Deserialize, Serialize};
 
 const LANE_OFFSET: f64 = 3.5;
@@ -52,9 +52,13 @@ pub struct MergeRoad {
 #[serde(deny_unknown_fields)]
 pub struct MergeLane {
     pub cruise_speed_mps: Range,
-    /// Lane car's centre relative to a full-throttle ego reaching the merge
-    /// point (m): near zero makes "always proceed" sideswipe a committed car.
+    /// Lane car's centre relative to the ego's at t = 0 (m): it starts alongside.
     pub alongside_offset_m: Range,
+    /// How much faster than its cruise a committed car drives to deny the
+    /// gap ahead of itself to an ego that speeds up (m/s).
+    pub deny_extra_mps: f64,
+    /// Bumper gap a car making room opens ahead of itself (m).
+    pub open_gap_m: f64,
     /// Follower's centre behind the lane car's centre at t = 0 (m).
     pub follower_gap_m: Range,
     /// Deceleration with which a car opens a gap for the ego (m/s^2).
@@ -96,6 +100,8 @@ impl MergeParams {
         c.range_within("lane.alongside_offset_m", self.lane.alongside_offset_m, -20.0, 20.0)?;
         c.range_within("lane.follower_gap_m", self.lane.follower_gap_m, CAR_LENGTH + 1.0, 200.0)?;
         c.within("lane.open_decel_mps2", self.lane.open_decel_mps2, 0.3, 6.0)?;
+        c.within("lane.deny_extra_mps", self.lane.deny_extra_mps, 0.0, 10.0)?;
+        c.within("lane.open_gap_m", self.lane.open_gap_m, 0.0, 50.0)?;
         c.non_negative("lane.patience_s", self.lane.patience_s)?;
         c.within("idm.accel", self.idm.accel, 0.3, 5.0)?;
         c.within("idm.brake", self.idm.brake, 0.5, 8.0)?;
@@ -129,7 +135,6 @@ enum Phase {
 }
 
 pub struct MergeWorld {
-    tier: Tier,
     disposition: Disposition,
     params: MergeParams,
     merge_point: f64,
@@ -158,9 +163,8 @@ impl MergeWorld {
         let cruise = params.lane.cruise_speed_mps.sample(geometry);
         let offset = params.lane.alongside_offset_m.sample(geometry);
         let follower_gap = params.lane.follower_gap_m.sample(geometry);
-        let t_ego = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
-        let x_lane = merge_point + offset - cruise * t_ego;
         let ego_start = Body::new(merge_point - d_ego, v_ego);
+        let x_lane = ego_start.s + offset;
         let phase = match (tier, disposition) {
             (Tier::T1 | Tier::T2, Disposition::Committed) => Phase::Hold,
             _ => Phase::Open { crawling_since: None, floor_since: None },
@@ -170,7 +174,6 @@ impl MergeWorld {
         let follower_history =
             History::steady(Sample { position_m: x_lane - follower_gap - ego_start.s, velocity_mps: cruise }, rel_rate);
         let mut world = MergeWorld {
-            tier,
             disposition,
             params: params.clone(),
             merge_point,
@@ -244,10 +247,30 @@ impl MergeWorld {
     fn lane_car_accel(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) -> f64 {
         let idm = self.params.idm;
         let lane = self.lane_car;
-        let drive = |w: &Self| idm.accel(lane.v, w.cruise, w.leader(&lane, None, ego));
+        let rel = lane.s - ego.s;
+        let in_lane_leader = self.leader(&lane, None, ego);
+        // A car physically in the lane ahead is always respected.
+        let respect = |a: f64| a.min(idm.accel(lane.v, f64::INFINITY, in_lane_leader));
         match self.phase {
-            Phase::Hold | Phase::Drive => drive(self),
-            Phase::Close => track_speed(lane.v, self.cruise + 2.0, self.params.tier3.close_accel_mps2, 3.0, dt),
+            Phase::Drive => idm.accel(lane.v, self.cruise, in_lane_leader),
+            Phase::Hold => {
+                // Committed: deny the gap ahead by matching a faster ego while
+                // alongside; otherwise keep cruising.
+                let alongside = rel < CAR_LENGTH && rel > -2.0 * CAR_LENGTH;
+                let target = if alongside {
+                    (ego.v + 0.5).clamp(self.cruise, self.cruise + self.params.lane.deny_extra_mps)
+                } else {
+                    self.cruise
+                };
+                respect(track_speed(lane.v, target, 2.5, 3.0, dt))
+            }
+            Phase::Close => track_speed(
+                lane.v,
+                (ego.v + 2.0).max(self.cruise),
+                self.params.tier3.close_accel_mps2,
+                3.0,
+                dt,
+            ),
             Phase::Open { crawling_since, floor_since } => {
                 let bluffing = self.disposition == Disposition::Committed;
                 let floor = self.params.tier3.floor_fraction * self.cruise;
@@ -272,10 +295,15 @@ impl MergeWorld {
                         return 0.0;
                     }
                 }
-                // Treat the ego as a leader to drop in behind it.
+                // Drop back until `open_gap_m` behind the ego, then follow it
+                // as if it were already the leader.
                 let gap = ego.s - lane.s - CAR_LENGTH;
-                let a = idm.accel(lane.v, self.cruise, Some((gap.max(0.5), lane.v - ego.v)));
-                let a = if gap < 0.0 { a.max(-self.params.lane.open_decel_mps2) } else { a };
+                let a = if gap < self.params.lane.open_gap_m {
+                    // Fall back relative to the ego, however slowly it goes.
+                    track_speed(lane.v, (ego.v - 2.0).max(0.0), idm.accel, self.params.lane.open_decel_mps2, dt)
+                } else {
+                    idm.accel(lane.v, self.cruise, Some((gap - self.params.lane.open_gap_m + idm.min_gap, lane.v - ego.v)))
+                };
                 let crawling = lane.v < 1.0;
                 let since = if crawling { Some(crawling_since.unwrap_or(t)) } else { None };
                 self.phase = Phase::Open { crawling_since: since, floor_since };

@@ -24,7 +24,7 @@ pub const PATH_FAR: f64 = KERB + 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 /// Far kerb of the two-lane road.
 pub const FAR_KERB: f64 = 4.0 * KERB;
 /// Pedestrians change speed at most this fast (m/s^2).
-const PED_ACCEL: f64 = 4.0;
+const PED_ACCEL: f64 = 6.0;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -76,6 +76,8 @@ pub struct PedTier2 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedTier3 {
+    /// Where both start, walking to the kerb at once.
+    pub start_position_m: Range,
     /// Both walk to the kerb and stop; they linger this long (s) before the
     /// feinter steps back or the crosser darts.
     pub linger_s: Range,
@@ -101,6 +103,7 @@ impl PedestrianParams {
         c.range_within("pedestrian.position_at_ego_arrival_m", b.position_at_ego_arrival_m, PATH_NEAR, PATH_FAR)?;
         c.range_within("tier2.start_position_m", self.tier2.start_position_m, -10.0, b.kerb_stop_m)?;
         c.within("tier2.step_out_speed_mps", self.tier2.step_out_speed_mps, 0.3, 4.0)?;
+        c.range_within("tier3.start_position_m", self.tier3.start_position_m, -10.0, b.kerb_stop_m)?;
         c.range_within("tier3.linger_s", self.tier3.linger_s, 0.0, 20.0)?;
         c.within("tier3.dart_speed_mps", self.tier3.dart_speed_mps, 0.5, 5.0)?;
         c.within("tier3.dart_horizon_s", self.tier3.dart_horizon_s, 0.0, 5.0)
@@ -147,11 +150,13 @@ impl PedestrianWorld {
         let at_arrival = b.position_at_ego_arrival_m.sample(geometry);
         let hold = b.hold_s.sample(geometry);
         let linger3 = params.tier3.linger_s.sample(geometry);
-        let t3_start = 0.5 + geometry.unit();
+        let start_t3 = params.tier3.start_position_m.sample(geometry);
+        let t3_start = 0.3 + 0.5 * geometry.unit();
         let t_ego = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
         let (lat, cross_speed) = match tier {
+            Tier::T1 => (start_t1, walk),
             Tier::T2 => (start_t2, params.tier2.step_out_speed_mps),
-            _ => (start_t1, walk),
+            Tier::T3 => (start_t3, walk),
         };
         let (phase, linger) = match tier {
             Tier::T1 | Tier::T2 => {

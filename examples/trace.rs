@@ -1,0 +1,29 @@
+use negotiator::episode::*;
+use negotiator::observation::*;
+use negotiator::policy::PolicyKind;
+use negotiator::scenario::*;
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let kind: ScenarioKind = a[1].parse().unwrap();
+    let tier: Tier = a[2].parse().unwrap();
+    let policy: PolicyKind = a[3].parse().unwrap();
+    let seed: u64 = a[4].parse().unwrap();
+    let set = ScenarioSet::default();
+    let mut ep = Episode::new(set.get(kind), tier, seed);
+    let mut p = policy.build();
+    p.reset(policy_seed(ep.spec()));
+    println!("disposition {}", ep.disposition());
+    while !ep.is_done() {
+        let o = *ep.observation();
+        let act = p.act(&o);
+        let (ed, others) = match o.scene {
+            Scene::YieldStandoff { ego_to_conflict_m, other } => (ego_to_conflict_m, format!("o {:6.1} {:5.1}", other.now.position_m, other.now.velocity_mps)),
+            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => (ego_to_crosswalk_m, format!("p {:6.2} {:5.2}", pedestrian.now.position_m, pedestrian.now.velocity_mps)),
+            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => (ego_to_merge_m, format!("L {:6.1} {:5.1} F {:6.1} {:5.1}", lane_car.now.position_m, lane_car.now.velocity_mps, follower.now.position_m, follower.now.velocity_mps)),
+        };
+        println!("t {:4.1} ego d {:6.1} v {:5.1} | {} | {} {:+.2} rev {}", o.time_s, ed, o.ego.speed_mps, others, act.maneuver, act.acceleration, ep.revealed());
+        ep.step(act);
+    }
+    let r = ep.finish();
+    println!("{:?} reward {:.2} dc {:.2}", r.outcome, r.grades.reward, r.grades.decision_correctness);
+}
