@@ -66,8 +66,8 @@ impl CellSummary {
             success: normal_ci_proportion(count(Outcome::Success), n),
             collision: normal_ci_proportion(count(Outcome::Collision), n),
             timeout: normal_ci_proportion(count(Outcome::Timeout), n),
-            reward: normal_ci_mean(&rewards),
-            decision_correctness: normal_ci_mean(&correctness),
+            reward: clamp(normal_ci_mean(&rewards), -1.0, 1.0),
+            decision_correctness: clamp(normal_ci_mean(&correctness), 0.0, 1.0),
             spans,
         }
     }
@@ -75,6 +75,11 @@ impl CellSummary {
     pub fn span(&self, outcome: Outcome) -> RewardSpan {
         self.spans[outcome_index(outcome)]
     }
+}
+
+/// A normal-approximation interval cannot leave the metric's range.
+fn clamp(i: Interval, lo: f64, hi: f64) -> Interval {
+    Interval { estimate: i.estimate, lo: i.lo.clamp(lo, hi), hi: i.hi.clamp(lo, hi) }
 }
 
 fn outcome_index(o: Outcome) -> usize {

@@ -211,7 +211,7 @@ fn unit_number(field: NumericField, v: &Val<'_>) -> Result<f64, ActionParseError
     let parsed = match v {
         Val::Num(raw) => raw.parse::<f64>().ok(),
         Val::Str(s) => s.trim().parse::<f64>().ok(),
-        Val::Null | Val::Other { .. } => None,
+        Val::Null | Val::Other(_) => None,
     };
     match parsed {
         None => Err(ActionParseError::NotANumber { field, value: clip(v.text()) }),
@@ -434,9 +434,7 @@ enum Val<'a> {
     /// Raw JSON number text (or `NaN` / `Infinity` / `-Infinity`).
     Num(&'a str),
     /// Boolean, array or object, as raw JSON text.
-    Other {
-        raw: &'a str,
-    },
+    Other(&'a str),
 }
 
 impl Val<'_> {
@@ -445,7 +443,7 @@ impl Val<'_> {
         match self {
             Val::Null => "null",
             Val::Str(s) => s,
-            Val::Num(raw) | Val::Other { raw } => raw,
+            Val::Num(raw) | Val::Other(raw) => raw,
         }
     }
 }
@@ -526,7 +524,7 @@ impl<'a> Reader<'a, '_> {
             Some(b'-' | b'0'..=b'9' | b'N' | b'I') => self.number().map(Val::Num),
             _ => {
                 self.value(depth)?;
-                Ok(Val::Other { raw: self.slice(start) })
+                Ok(Val::Other(self.slice(start)))
             }
         }
     }
@@ -1060,7 +1058,6 @@ mod tests {
             fill("\"["),
             format!("{{\"maneuver\": \"stop\", \"acceleration\": 0.{}}}", "5".repeat(MB)),
         ];
-        let start = std::time::Instant::now();
         for text in &inputs {
             let p = parse_action(text);
             assert!(p.is_clean() || p.action == STOP);
@@ -1068,8 +1065,6 @@ mod tests {
             let work = scan(text).work;
             assert!(work <= 12 * text.len() + FAILED_WORK_SLACK, "work {work} on {:?}…", &text[..8]);
         }
-        // Milliseconds in release; generous for debug builds on slow machines.
-        assert!(start.elapsed().as_secs() < 20, "took {:?}", start.elapsed());
         let big = format!(r#"{{"reasoning": "{}", "maneuver": "yield", "acceleration": -0.3}}"#, fill("{x} "));
         assert_clean(&big, act(Maneuver::Yield, -0.3, 0.0));
     }

@@ -1,11 +1,53 @@
-//! `negotiator baselines`.
+//! `negotiator baselines`: the reference table of the non-LLM policies.
+
+use super::parse_list;
+use crate::baselines::{GridSpec, run_grid};
+use crate::export::Format;
+use crate::policy::PolicyKind;
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Debug, clap::Args)]
-pub struct BaselinesArgs {}
+pub struct BaselinesArgs {
+    /// Episodes (seeds) per (scenario, tier, policy) cell.
+    #[arg(short = 'n', long = "episodes", default_value_t = 200)]
+    pub episodes: usize,
+    /// Scenario name, a comma-separated list, or `all`.
+    #[arg(long, default_value = "all")]
+    pub scenario: String,
+    /// Tier (1, 2, 3), a comma-separated list, or `all`.
+    #[arg(long, default_value = "all")]
+    pub tier: String,
+    /// Policy name, a comma-separated list, or `all`.
+    #[arg(long, default_value = "all")]
+    pub policy: String,
+    /// First seed; cell seeds are BASE .. BASE + n.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    pub format: Format,
+    /// Replace a built-in scenario with this TOML file (repeatable).
+    #[arg(long = "scenario-file", value_name = "PATH")]
+    pub scenario_files: Vec<PathBuf>,
+}
 
 impl BaselinesArgs {
     pub fn run(self) -> anyhow::Result<ExitCode> {
+        if self.episodes == 0 {
+            return Err(super::usage("-n/--episodes: must be at least 1"));
+        }
+        let spec = GridSpec {
+            scenarios: parse_list(&self.scenario, &ScenarioKind::ALL, "--scenario")?,
+            tiers: parse_list(&self.tier, &Tier::ALL, "--tier")?,
+            policies: parse_list(&self.policy, &PolicyKind::ALL, "--policy")?,
+            episodes: self.episodes,
+            seed_base: self.seed,
+        };
+        let set = ScenarioSet::with_overrides(&self.scenario_files)?;
+        let cells = run_grid(&set, &spec, &|_, _| {});
+        let mut out = std::io::stdout().lock();
+        self.format.exporter().write(&cells, &mut out)?;
         Ok(ExitCode::SUCCESS)
     }
 }

@@ -99,7 +99,7 @@ impl Policy for CueFollower {
                 if *d < 0.0 || lane_has_room([lane_car, follower], v, true) || giving_way {
                     go()
                 } else {
-                    hedge(v, d - WAIT_GAP_M)
+                    hedge(v, d - 1.0)
                 }
             }
         }
