@@ -1,1 +1,37 @@
-fn main(){}
+//! Simulator speed: one decision (5 physics steps) and one whole episode.
+//! Run: cargo bench --bench simulator
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use negotiator::action::{Action, Maneuver};
+use negotiator::episode::{Episode, run_episode};
+use negotiator::policy::PolicyKind;
+use negotiator::scenario::{ScenarioKind, ScenarioSet, Tier};
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let set = ScenarioSet::default();
+    for kind in ScenarioKind::ALL {
+        let config = set.get(kind);
+        c.bench_function(&format!("{kind}/decision (5 physics steps)"), |b| {
+            b.iter_batched(
+                || Episode::new(config, Tier::T3, 17),
+                |mut ep| {
+                    ep.step(black_box(Action::new(Maneuver::Yield, 0.2)));
+                    ep
+                },
+                criterion::BatchSize::SmallInput,
+            )
+        });
+        c.bench_function(&format!("{kind}/episode (expert)"), |b| {
+            let mut expert = PolicyKind::Expert.build();
+            let mut seed = 0;
+            b.iter(|| {
+                seed += 1;
+                black_box(run_episode(config, Tier::T3, seed, expert.as_mut()))
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -17,11 +17,33 @@ fn main() {
         let o = *ep.observation();
         let act = p.act(&o);
         let (ed, others) = match o.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other } => (ego_to_conflict_m, format!("o {:6.1} {:5.1}", other.now.position_m, other.now.velocity_mps)),
-            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => (ego_to_crosswalk_m, format!("p {:6.2} {:5.2}", pedestrian.now.position_m, pedestrian.now.velocity_mps)),
-            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => (ego_to_merge_m, format!("L {:6.1} {:5.1} F {:6.1} {:5.1}", lane_car.now.position_m, lane_car.now.velocity_mps, follower.now.position_m, follower.now.velocity_mps)),
+            Scene::YieldStandoff { ego_to_conflict_m, other } => {
+                (ego_to_conflict_m, format!("o {:6.1} {:5.1}", other.now.position_m, other.now.velocity_mps))
+            }
+            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
+                (ego_to_crosswalk_m, format!("p {:6.2} {:5.2}", pedestrian.now.position_m, pedestrian.now.velocity_mps))
+            }
+            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => (
+                ego_to_merge_m,
+                format!(
+                    "L {:6.1} {:5.1} F {:6.1} {:5.1}",
+                    lane_car.now.position_m,
+                    lane_car.now.velocity_mps,
+                    follower.now.position_m,
+                    follower.now.velocity_mps
+                ),
+            ),
         };
-        println!("t {:4.1} ego d {:6.1} v {:5.1} | {} | {} {:+.2} rev {}", o.time_s, ed, o.ego.speed_mps, others, act.maneuver, act.acceleration, ep.revealed());
+        println!(
+            "t {:4.1} ego d {:6.1} v {:5.1} | {} | {} {:+.2} rev {}",
+            o.time_s,
+            ed,
+            o.ego.speed_mps,
+            others,
+            act.maneuver,
+            act.acceleration,
+            ep.revealed()
+        );
         ep.step(act);
     }
     let r = ep.finish();

@@ -366,12 +366,19 @@ fn sanitize(a: Action) -> Action {
     if !a.acceleration.is_finite() {
         return Action::CONSERVATIVE;
     }
-    Action { acceleration: a.acceleration.clamp(-1.0, 1.0), steering: if a.steering.is_finite() { a.steering } else { 0.0 }, ..a }
+    Action {
+        acceleration: a.acceleration.clamp(-1.0, 1.0),
+        steering: if a.steering.is_finite() { a.steering } else { 0.0 },
+        ..a
+    }
 }
 
 fn placeholder_observation(scenario: ScenarioKind) -> Observation {
     use crate::observation::{Sample, Scene, Track};
-    let t = Track { now: Sample { position_m: 0.0, velocity_mps: 0.0 }, past: [Sample { position_m: 0.0, velocity_mps: 0.0 }; 4] };
+    let t = Track {
+        now: Sample { position_m: 0.0, velocity_mps: 0.0 },
+        past: [Sample { position_m: 0.0, velocity_mps: 0.0 }; 4],
+    };
     Observation {
         scenario,
         time_s: 0.0,
@@ -396,7 +403,12 @@ pub struct EpisodeRecord {
 }
 
 /// Play one whole episode with an in-process policy.
-pub fn run_episode(config: &ScenarioConfig, tier: Tier, seed: u64, policy: &mut dyn crate::policy::Policy) -> EpisodeRecord {
+pub fn run_episode(
+    config: &ScenarioConfig,
+    tier: Tier,
+    seed: u64,
+    policy: &mut dyn crate::policy::Policy,
+) -> EpisodeRecord {
     let mut episode = Episode::new(config, tier, seed);
     policy.reset(policy_seed(episode.spec()));
     while !episode.is_done() {

@@ -11,7 +11,9 @@
 
 pub mod action;
 pub mod baselines;
+pub mod cli;
 pub mod episode;
+pub mod export;
 pub mod grading;
 pub mod observation;
 pub mod policy;
@@ -20,7 +22,3 @@ pub mod scenario;
 pub mod sim;
 pub mod stats;
 pub mod validate;
-pub mod cli;
-pub mod eval;
-pub mod llm;
-pub mod serve;

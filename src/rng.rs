@@ -81,10 +81,30 @@ mod tests {
 
     #[test]
     fn streams_differ_and_repeat() {
-        let a: Vec<f64> = (0..4).map({ let mut r = EpisodeRng::new(&[1, 1, 7], Stream::Geometry); move |_| r.unit() }).collect();
-        let b: Vec<f64> = (0..4).map({ let mut r = EpisodeRng::new(&[1, 1, 7], Stream::Geometry); move |_| r.unit() }).collect();
-        let c: Vec<f64> = (0..4).map({ let mut r = EpisodeRng::new(&[1, 1, 7], Stream::Disposition); move |_| r.unit() }).collect();
-        let d: Vec<f64> = (0..4).map({ let mut r = EpisodeRng::new(&[1, 1, 8], Stream::Geometry); move |_| r.unit() }).collect();
+        let a: Vec<f64> = (0..4)
+            .map({
+                let mut r = EpisodeRng::new(&[1, 1, 7], Stream::Geometry);
+                move |_| r.unit()
+            })
+            .collect();
+        let b: Vec<f64> = (0..4)
+            .map({
+                let mut r = EpisodeRng::new(&[1, 1, 7], Stream::Geometry);
+                move |_| r.unit()
+            })
+            .collect();
+        let c: Vec<f64> = (0..4)
+            .map({
+                let mut r = EpisodeRng::new(&[1, 1, 7], Stream::Disposition);
+                move |_| r.unit()
+            })
+            .collect();
+        let d: Vec<f64> = (0..4)
+            .map({
+                let mut r = EpisodeRng::new(&[1, 1, 8], Stream::Geometry);
+                move |_| r.unit()
+            })
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_ne!(a, d);

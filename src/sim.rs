@@ -65,20 +65,12 @@ pub struct Aabb {
 
 impl Aabb {
     pub fn centered(x: f64, y: f64, len_x: f64, len_y: f64) -> Self {
-        Aabb {
-            min_x: x - 0.5 * len_x,
-            max_x: x + 0.5 * len_x,
-            min_y: y - 0.5 * len_y,
-            max_y: y + 0.5 * len_y,
-        }
+        Aabb { min_x: x - 0.5 * len_x, max_x: x + 0.5 * len_x, min_y: y - 0.5 * len_y, max_y: y + 0.5 * len_y }
     }
 
     /// Strict overlap: touching edges are not a collision.
     pub fn overlaps(&self, other: &Aabb) -> bool {
-        self.min_x < other.max_x
-            && other.min_x < self.max_x
-            && self.min_y < other.max_y
-            && other.min_y < self.max_y
+        self.min_x < other.max_x && other.min_x < self.max_x && self.min_y < other.max_y && other.min_y < self.max_y
     }
 
     /// Euclidean clearance between two boxes (0 when they overlap).
@@ -93,20 +85,12 @@ impl Aabb {
 /// (when slower) or `brake` (when faster), without overshooting in one step.
 pub fn track_speed(v: f64, target: f64, accel_up: f64, brake: f64, dt: f64) -> f64 {
     let needed = (target - v) / dt;
-    if needed >= 0.0 {
-        needed.min(accel_up)
-    } else {
-        needed.max(-brake)
-    }
+    if needed >= 0.0 { needed.min(accel_up) } else { needed.max(-brake) }
 }
 
 /// Constant deceleration that brings speed `v` to rest over `distance`.
 pub fn stopping_decel(v: f64, distance: f64) -> f64 {
-    if distance <= 0.01 {
-        f64::INFINITY
-    } else {
-        v * v / (2.0 * distance)
-    }
+    if distance <= 0.01 { f64::INFINITY } else { v * v / (2.0 * distance) }
 }
 
 /// Intelligent Driver Model acceleration (Treiber et al.), with the
@@ -134,8 +118,8 @@ impl Idm {
         let free = 1.0 - r * r * r * r;
         let interaction = match leader {
             Some((gap, dv)) => {
-                let s_star = self.min_gap
-                    + (v * self.headway + v * dv / (2.0 * (self.accel * self.brake).sqrt())).max(0.0);
+                let s_star =
+                    self.min_gap + (v * self.headway + v * dv / (2.0 * (self.accel * self.brake).sqrt())).max(0.0);
                 let q = s_star / gap.max(0.1);
                 q * q
             }
@@ -170,13 +154,15 @@ mod tests {
 
     #[test]
     fn braking_body_stops_exactly_and_never_reverses() {
-        let mut b = Body::new(0.0, 1.0);
+        // 0.5 m/s at -8 m/s^2 stops after 0.0625 s and 0.25 / 16 m.
+        let mut b = Body::new(0.0, 0.5);
         b.advance(-8.0, DT);
         assert_eq!(b.v, 0.0);
-        assert!((b.s - 1.0 / 16.0).abs() < 1e-12);
+        assert!((b.s - 0.25 / 16.0).abs() < 1e-12);
+        assert!((b.a - (-5.0)).abs() < 1e-12, "realised mean deceleration {}", b.a);
         b.advance(-8.0, DT);
         assert_eq!(b.v, 0.0);
-        assert!((b.s - 1.0 / 16.0).abs() < 1e-12);
+        assert!((b.s - 0.25 / 16.0).abs() < 1e-12);
     }
 
     #[test]

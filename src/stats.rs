@@ -32,11 +32,7 @@ pub struct Interval {
 }
 
 impl Interval {
-    const NAN: Interval = Interval {
-        estimate: f64::NAN,
-        lo: f64::NAN,
-        hi: f64::NAN,
-    };
+    const NAN: Interval = Interval { estimate: f64::NAN, lo: f64::NAN, hi: f64::NAN };
 }
 
 /// Errors from the statistics functions.
@@ -67,11 +63,7 @@ pub fn normal_ci_proportion(successes: usize, n: usize) -> Interval {
     let nf = n as f64;
     let p = successes as f64 / nf;
     let half = Z_95 * (p * (1.0 - p) / nf).sqrt();
-    Interval {
-        estimate: p,
-        lo: (p - half).clamp(0.0, 1.0),
-        hi: (p + half).clamp(0.0, 1.0),
-    }
+    Interval { estimate: p, lo: (p - half).clamp(0.0, 1.0), hi: (p + half).clamp(0.0, 1.0) }
 }
 
 /// Wilson score 95% interval for a proportion.
@@ -91,11 +83,7 @@ pub fn wilson_ci(successes: usize, n: usize) -> Interval {
     let denom = 1.0 + z2 / nf;
     let centre = (p + z2 / (2.0 * nf)) / denom;
     let half = Z_95 / denom * (p * (1.0 - p) / nf + z2 / (4.0 * nf * nf)).sqrt();
-    Interval {
-        estimate: p,
-        lo: (centre - half).clamp(0.0, 1.0),
-        hi: (centre + half).clamp(0.0, 1.0),
-    }
+    Interval { estimate: p, lo: (centre - half).clamp(0.0, 1.0), hi: (centre + half).clamp(0.0, 1.0) }
 }
 
 /// Normal-approximation 95% interval for a mean.
@@ -107,20 +95,12 @@ pub fn normal_ci_mean(xs: &[f64]) -> Interval {
     let n = xs.len();
     let m = mean(xs);
     if n < 2 {
-        return Interval {
-            estimate: m,
-            lo: m,
-            hi: m,
-        };
+        return Interval { estimate: m, lo: m, hi: m };
     }
     let ss: f64 = xs.iter().map(|x| (x - m) * (x - m)).sum();
     let s = (ss / (n - 1) as f64).sqrt();
     let half = Z_95 * s / (n as f64).sqrt();
-    Interval {
-        estimate: m,
-        lo: m - half,
-        hi: m + half,
-    }
+    Interval { estimate: m, lo: m - half, hi: m + half }
 }
 
 /// Sample quantile of an ascending-sorted slice, Hyndman–Fan type 7 (the
@@ -160,11 +140,7 @@ struct IndexSampler {
 }
 
 const fn low_mask(bits: u32) -> u64 {
-    if bits >= 64 {
-        u64::MAX
-    } else {
-        (1 << bits) - 1
-    }
+    if bits >= 64 { u64::MAX } else { (1 << bits) - 1 }
 }
 
 impl IndexSampler {
@@ -249,10 +225,7 @@ fn percentile_bounds(mut stats: Vec<f64>, min: f64, max: f64) -> (f64, f64) {
 }
 
 fn min_max<'a>(xs: impl IntoIterator<Item = &'a f64>) -> (f64, f64) {
-    xs.into_iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
-            (lo.min(x), hi.max(x))
-        })
+    xs.into_iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| (lo.min(x), hi.max(x)))
 }
 
 /// Percentile-bootstrap 95% interval for the mean.
@@ -274,20 +247,12 @@ pub fn bootstrap_mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
     }
     let m = mean(xs);
     if xs.iter().any(|x| !x.is_finite()) {
-        return Interval {
-            estimate: m,
-            lo: f64::NAN,
-            hi: f64::NAN,
-        };
+        return Interval { estimate: m, lo: f64::NAN, hi: f64::NAN };
     }
     let (min, max) = min_max(xs);
     let estimate = m.clamp(min, max);
     if resamples == 0 {
-        return Interval {
-            estimate,
-            lo: f64::NAN,
-            hi: f64::NAN,
-        };
+        return Interval { estimate, lo: f64::NAN, hi: f64::NAN };
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let sampler = IndexSampler::new(n as u64);
@@ -333,20 +298,12 @@ pub fn bootstrap_clustered_mean_ci(groups: &[Vec<f64>], resamples: usize, seed: 
     let m = total / count;
     let all = || groups.iter().flatten();
     if all().any(|x| !x.is_finite()) {
-        return Interval {
-            estimate: m,
-            lo: f64::NAN,
-            hi: f64::NAN,
-        };
+        return Interval { estimate: m, lo: f64::NAN, hi: f64::NAN };
     }
     let (min, max) = min_max(all());
     let estimate = m.clamp(min, max);
     if resamples == 0 {
-        return Interval {
-            estimate,
-            lo: f64::NAN,
-            hi: f64::NAN,
-        };
+        return Interval { estimate, lo: f64::NAN, hi: f64::NAN };
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let sampler = IndexSampler::new(g as u64);
@@ -368,17 +325,9 @@ pub fn bootstrap_clustered_mean_ci(groups: &[Vec<f64>], resamples: usize, seed: 
 /// the between-pair variation shared by `a` and `b` cancels. Returns
 /// [`StatsError::LengthMismatch`] if the lengths differ; NaN semantics
 /// otherwise as [`bootstrap_mean_ci`].
-pub fn paired_bootstrap_diff_ci(
-    a: &[f64],
-    b: &[f64],
-    resamples: usize,
-    seed: u64,
-) -> Result<Interval, StatsError> {
+pub fn paired_bootstrap_diff_ci(a: &[f64], b: &[f64], resamples: usize, seed: u64) -> Result<Interval, StatsError> {
     if a.len() != b.len() {
-        return Err(StatsError::LengthMismatch {
-            a: a.len(),
-            b: b.len(),
-        });
+        return Err(StatsError::LengthMismatch { a: a.len(), b: b.len() });
     }
     let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
     Ok(bootstrap_mean_ci(&d, resamples, seed))
@@ -412,8 +361,7 @@ pub fn mcnemar_exact(b: usize, c: usize) -> f64 {
         }
         k -= 1;
     }
-    let log_p =
-        std::f64::consts::LN_2 + ln_binomial(n, m) - n as f64 * std::f64::consts::LN_2 + sum.ln();
+    let log_p = std::f64::consts::LN_2 + ln_binomial(n, m) - n as f64 * std::f64::consts::LN_2 + sum.ln();
     log_p.exp().min(1.0)
 }
 
@@ -440,11 +388,7 @@ pub fn mean_pass_hat_k(per_seed: &[(usize, usize)], k: usize) -> f64 {
     if per_seed.is_empty() {
         return f64::NAN;
     }
-    per_seed
-        .iter()
-        .map(|&(c, r)| pass_hat_k(c, r, k))
-        .sum::<f64>()
-        / per_seed.len() as f64
+    per_seed.iter().map(|&(c, r)| pass_hat_k(c, r, k)).sum::<f64>() / per_seed.len() as f64
 }
 
 #[cfg(test)]
@@ -461,15 +405,7 @@ mod tests {
     /// `n` Bernoulli values with exactly `ones` ones, interleaved
     /// deterministically (Bresenham spacing).
     fn bernoulli(ones: usize, n: usize) -> Vec<f64> {
-        (0..n)
-            .map(|i| {
-                if (i + 1) * ones / n > i * ones / n {
-                    1.0
-                } else {
-                    0.0
-                }
-            })
-            .collect()
+        (0..n).map(|i| if (i + 1) * ones / n > i * ones / n { 1.0 } else { 0.0 }).collect()
     }
 
     #[test]
@@ -502,10 +438,7 @@ mod tests {
         assert_eq!(iv.lo, 0.0);
         assert!(close(iv.hi, 0.2775, 1e-4), "{iv:?}");
         let iv = wilson_ci(50, 100);
-        assert!(
-            close(iv.lo, 0.4038, 1e-4) && close(iv.hi, 0.5962, 1e-4),
-            "{iv:?}"
-        );
+        assert!(close(iv.lo, 0.4038, 1e-4) && close(iv.hi, 0.5962, 1e-4), "{iv:?}");
         assert!(wilson_ci(0, 0).lo.is_nan());
     }
 
@@ -593,14 +526,8 @@ mod tests {
         assert_eq!(a.estimate, c.estimate);
         assert!(close(a.lo, c.lo, 0.03) && close(a.hi, c.hi, 0.03));
         let groups: Vec<Vec<f64>> = xs.chunks(10).map(|c| c.to_vec()).collect();
-        assert_eq!(
-            bootstrap_clustered_mean_ci(&groups, 2000, 3),
-            bootstrap_clustered_mean_ci(&groups, 2000, 3)
-        );
-        assert_ne!(
-            bootstrap_clustered_mean_ci(&groups, 2000, 3),
-            bootstrap_clustered_mean_ci(&groups, 2000, 4)
-        );
+        assert_eq!(bootstrap_clustered_mean_ci(&groups, 2000, 3), bootstrap_clustered_mean_ci(&groups, 2000, 3));
+        assert_ne!(bootstrap_clustered_mean_ci(&groups, 2000, 3), bootstrap_clustered_mean_ci(&groups, 2000, 4));
     }
 
     #[test]
@@ -669,13 +596,8 @@ mod tests {
     fn clustered_equal_sizes_matches_bootstrap_of_cluster_means() {
         // Same seed and same draw sequence: with equal cluster sizes, the
         // pooled resample mean equals the mean of drawn cluster means.
-        let groups: Vec<Vec<f64>> = (0..30)
-            .map(|g| {
-                (0..5)
-                    .map(|i| ((g * 7 + i * 3) % 11) as f64 / 10.0)
-                    .collect()
-            })
-            .collect();
+        let groups: Vec<Vec<f64>> =
+            (0..30).map(|g| (0..5).map(|i| ((g * 7 + i * 3) % 11) as f64 / 10.0).collect()).collect();
         let means: Vec<f64> = groups.iter().map(|g| mean(g)).collect();
         let cl = bootstrap_clustered_mean_ci(&groups, B, 11);
         let iid = bootstrap_mean_ci(&means, B, 11);
@@ -712,10 +634,7 @@ mod tests {
         assert_eq!((iv.estimate, iv.lo, iv.hi), (1.0, 1.0, 1.0));
         let iv = paired_bootstrap_diff_ci(&b, &b, B, 3).unwrap();
         assert_eq!((iv.estimate, iv.lo, iv.hi), (0.0, 0.0, 0.0));
-        assert_eq!(
-            paired_bootstrap_diff_ci(&a, &b[..49], B, 3),
-            Err(StatsError::LengthMismatch { a: 50, b: 49 })
-        );
+        assert_eq!(paired_bootstrap_diff_ci(&a, &b[..49], B, 3), Err(StatsError::LengthMismatch { a: 50, b: 49 }));
         let iv = paired_bootstrap_diff_ci(&[], &[], B, 3).unwrap();
         assert!(iv.estimate.is_nan());
     }
@@ -758,21 +677,13 @@ mod tests {
         // Large r without overflow: C(900,3)/C(1000,3).
         let exact = (900.0 * 899.0 * 898.0) / (1000.0 * 999.0 * 998.0);
         assert!(close(pass_hat_k(900, 1000, 3), exact, 1e-14));
-        assert!(close(
-            mean_pass_hat_k(&[(3, 5), (5, 5), (0, 5)], 2),
-            1.3 / 3.0,
-            1e-15
-        ));
+        assert!(close(mean_pass_hat_k(&[(3, 5), (5, 5), (0, 5)], 2), 1.3 / 3.0, 1e-15));
         assert!(mean_pass_hat_k(&[], 2).is_nan());
     }
 
     #[test]
     fn interval_serde_roundtrip() {
-        let iv = Interval {
-            estimate: 0.5,
-            lo: 0.25,
-            hi: 0.75,
-        };
+        let iv = Interval { estimate: 0.5, lo: 0.25, hi: 0.75 };
         let s = serde_json::to_string(&iv).unwrap();
         assert_eq!(s, r#"{"estimate":0.5,"lo":0.25,"hi":0.75}"#);
         assert_eq!(serde_json::from_str::<Interval>(&s).unwrap(), iv);

@@ -33,7 +33,12 @@ impl Check {
     }
 }
 
-fn find<'a>(cells: &'a [CellSummary], scenario: ScenarioKind, tier: Tier, policy: PolicyKind) -> Option<&'a CellSummary> {
+fn find<'a>(
+    cells: &'a [CellSummary],
+    scenario: ScenarioKind,
+    tier: Tier,
+    policy: PolicyKind,
+) -> Option<&'a CellSummary> {
     cells.iter().find(|c| c.cell == Cell { scenario, tier, policy })
 }
 
@@ -58,10 +63,15 @@ pub fn check_solvable(cells: &[CellSummary]) -> Check {
         let slack = e.success.estimate - bar;
         pass &= slack >= 0.0;
         if worst.as_ref().is_none_or(|(w, _)| slack < *w) {
-            worst = Some((slack, format!("expert success {:.3} on {} (bar {bar:.2})", e.success.estimate, label(s, t))));
+            worst =
+                Some((slack, format!("expert success {:.3} on {} (bar {bar:.2})", e.success.estimate, label(s, t))));
         }
     }
-    Check { name: "solvable", pass: pass && worst.is_some(), figure: worst.map_or("no expert cells".into(), |w| format!("lowest: {}", w.1)) }
+    Check {
+        name: "solvable",
+        pass: pass && worst.is_some(),
+        figure: worst.map_or("no expert cells".into(), |w| format!("lowest: {}", w.1)),
+    }
 }
 
 /// On every cell the expert beats every state-ignorant policy by >= 0.30.
@@ -78,7 +88,11 @@ pub fn check_anti_gaming(cells: &[CellSummary]) -> Check {
         }
     }
     let pass = worst.as_ref().is_some_and(|(m, _)| *m >= ANTI_GAMING_MARGIN);
-    Check { name: "anti-gaming", pass, figure: worst.map_or("no cells".into(), |w| format!("smallest margin: {} (bar {ANTI_GAMING_MARGIN:.2})", w.1)) }
+    Check {
+        name: "anti-gaming",
+        pass,
+        figure: worst.map_or("no cells".into(), |w| format!("smallest margin: {} (bar {ANTI_GAMING_MARGIN:.2})", w.1)),
+    }
 }
 
 /// On tier 3 (bluff / pause-then-dart / merge bluff) the cue follower is
@@ -91,7 +105,8 @@ pub fn check_tiers_bite(cells: &[CellSummary]) -> Check {
         if t == Tier::T2 {
             continue;
         }
-        let (Some(e), Some(c)) = (find(cells, s, t, PolicyKind::Expert), find(cells, s, t, PolicyKind::CueFollower)) else {
+        let (Some(e), Some(c)) = (find(cells, s, t, PolicyKind::Expert), find(cells, s, t, PolicyKind::CueFollower))
+        else {
             continue;
         };
         seen = true;
@@ -113,9 +128,13 @@ pub fn check_tiers_bite(cells: &[CellSummary]) -> Check {
 /// Every collision < every timeout < every success, over all episodes.
 pub fn check_reward_ordering(cells: &[CellSummary]) -> Check {
     let agg = |o: Outcome| {
-        cells.iter().map(|c| c.span(o)).filter(|s| s.count > 0).fold((f64::INFINITY, f64::NEG_INFINITY, 0usize), |acc, s| {
-            (acc.0.min(s.min), acc.1.max(s.max), acc.2 + s.count)
-        })
+        cells
+            .iter()
+            .map(|c| c.span(o))
+            .filter(|s| s.count > 0)
+            .fold((f64::INFINITY, f64::NEG_INFINITY, 0usize), |acc, s| {
+                (acc.0.min(s.min), acc.1.max(s.max), acc.2 + s.count)
+            })
     };
     let (c_min, c_max, c_n) = agg(Outcome::Collision);
     let (t_min, t_max, t_n) = agg(Outcome::Timeout);
@@ -219,10 +238,7 @@ pub fn check_hidden_disposition(
 
 /// Parsing the rendered text gives back the observation, to the printed
 /// precision.
-pub fn check_round_trip(
-    observations: &[Observation],
-    render: &dyn Fn(&Observation) -> String,
-) -> Check {
+pub fn check_round_trip(observations: &[Observation], render: &dyn Fn(&Observation) -> String) -> Check {
     let mut bad = 0usize;
     let mut example = String::new();
     for o in observations {
@@ -265,7 +281,9 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64) -> Vec<Check> {
     let cells = run_grid(set, &spec, &|_, _| {});
     let seeds = seed_base..seed_base + n as u64;
     let (hidden, observations) =
-        check_hidden_disposition(set, &ScenarioKind::ALL, &Tier::ALL, seeds, &|e: &Episode| render_scene(e.observation()));
+        check_hidden_disposition(set, &ScenarioKind::ALL, &Tier::ALL, seeds, &|e: &Episode| {
+            render_scene(e.observation())
+        });
     vec![
         check_solvable(&cells),
         check_anti_gaming(&cells),

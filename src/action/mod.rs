@@ -39,12 +39,8 @@ impl Maneuver {
     /// Parse a maneuver name, tolerating case, surrounding space, and `-`,
     /// space or nothing in place of `_` ("Nudge-Forward", "NUDGEFORWARD").
     pub fn from_loose(s: &str) -> Option<Maneuver> {
-        let norm: String = s
-            .trim()
-            .chars()
-            .filter(|c| !matches!(c, '_' | '-' | ' ' | '\t'))
-            .flat_map(char::to_lowercase)
-            .collect();
+        let norm: String =
+            s.trim().chars().filter(|c| !matches!(c, '_' | '-' | ' ' | '\t')).flat_map(char::to_lowercase).collect();
         match norm.as_str() {
             "proceed" => Some(Maneuver::Proceed),
             "yield" => Some(Maneuver::Yield),

@@ -40,7 +40,11 @@ pub fn usage(msg: impl Into<String>) -> anyhow::Error {
 }
 
 #[derive(Debug, Parser)]
-#[command(name = "negotiator", version, about = "Can a model read another road user's hidden intent from its motion, and drive accordingly?")]
+#[command(
+    name = "negotiator",
+    version,
+    about = "Can a model read another road user's hidden intent from its motion, and drive accordingly?"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -92,8 +96,5 @@ where
     if value.trim() == "all" {
         return Ok(all.to_vec());
     }
-    value
-        .split(',')
-        .map(|v| v.trim().parse::<T>().map_err(|e| usage(format!("{flag}: {e}"))))
-        .collect()
+    value.split(',').map(|v| v.trim().parse::<T>().map_err(|e| usage(format!("{flag}: {e}")))).collect()
 }

@@ -13,7 +13,8 @@ impl Exporter for CsvExporter {
         }
         w.write_record(&header)?;
         for c in cells {
-            let mut row = vec![c.cell.scenario.to_string(), c.cell.tier.to_string(), c.cell.policy.to_string(), c.n.to_string()];
+            let mut row =
+                vec![c.cell.scenario.to_string(), c.cell.tier.to_string(), c.cell.policy.to_string(), c.n.to_string()];
             for i in [&c.success, &c.collision, &c.timeout, &c.reward, &c.decision_correctness] {
                 row.extend([format!("{:.4}", i.estimate), format!("{:.4}", i.lo), format!("{:.4}", i.hi)]);
             }

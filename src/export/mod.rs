@@ -38,5 +38,4 @@ pub(crate) fn with_ci(i: &crate::stats::Interval) -> String {
     format!("{:.2} [{:.2}, {:.2}]", i.estimate, i.lo, i.hi)
 }
 
-pub(crate) const HEADERS: [&str; 8] =
-    ["scenario", "tier", "policy", "n", "success", "collision", "timeout", "reward"];
+pub(crate) const HEADERS: [&str; 8] = ["scenario", "tier", "policy", "n", "success", "collision", "timeout", "reward"];

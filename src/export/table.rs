@@ -21,7 +21,8 @@ impl Exporter for TableExporter {
                 with_ci(&c.decision_correctness),
             ]);
         }
-        let widths: Vec<usize> = (0..rows[0].len()).map(|i| rows.iter().map(|r| r[i].len()).max().unwrap_or(0)).collect();
+        let widths: Vec<usize> =
+            (0..rows[0].len()).map(|i| rows.iter().map(|r| r[i].len()).max().unwrap_or(0)).collect();
         for r in rows {
             let line: Vec<String> = r.iter().zip(&widths).map(|(v, w)| format!("{v:<w$}")).collect();
             writeln!(out, "{}", line.join("  ").trim_end())?;

@@ -24,11 +24,7 @@ fn numbers(s: &str) -> Vec<f64> {
     s.split(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | '(' | ')'))
         .filter_map(|w| {
             let first = w.chars().next()?;
-            if first.is_ascii_digit() || (first == '-' && w.len() > 1) {
-                w.parse::<f64>().ok()
-            } else {
-                None
-            }
+            if first.is_ascii_digit() || (first == '-' && w.len() > 1) { w.parse::<f64>().ok() } else { None }
         })
         .collect()
 }

@@ -75,7 +75,8 @@ pub fn render_scene(obs: &Observation) -> String {
     }
     match obs.last_action {
         Some(a) => {
-            let _ = writeln!(out, "Your last action: {}, acceleration {}", a.maneuver, f2(a.acceleration.clamp(-1.0, 1.0)));
+            let _ =
+                writeln!(out, "Your last action: {}, acceleration {}", a.maneuver, f2(a.acceleration.clamp(-1.0, 1.0)));
         }
         None => {
             let _ = writeln!(out, "Your last action: none (first turn)");

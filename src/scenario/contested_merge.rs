@@ -264,13 +264,9 @@ impl MergeWorld {
                 };
                 respect(track_speed(lane.v, target, 2.5, 3.0, dt))
             }
-            Phase::Close => track_speed(
-                lane.v,
-                (ego.v + 2.0).max(self.cruise),
-                self.params.tier3.close_accel_mps2,
-                3.0,
-                dt,
-            ),
+            Phase::Close => {
+                track_speed(lane.v, (ego.v + 2.0).max(self.cruise), self.params.tier3.close_accel_mps2, 3.0, dt)
+            }
             Phase::Open { crawling_since, floor_since } => {
                 let bluffing = self.disposition == Disposition::Committed;
                 let floor = self.params.tier3.floor_fraction * self.cruise;
@@ -302,7 +298,11 @@ impl MergeWorld {
                     // Fall back relative to the ego, however slowly it goes.
                     track_speed(lane.v, (ego.v - 2.0).max(0.0), idm.accel, self.params.lane.open_decel_mps2, dt)
                 } else {
-                    idm.accel(lane.v, self.cruise, Some((gap - self.params.lane.open_gap_m + idm.min_gap, lane.v - ego.v)))
+                    idm.accel(
+                        lane.v,
+                        self.cruise,
+                        Some((gap - self.params.lane.open_gap_m + idm.min_gap, lane.v - ego.v)),
+                    )
                 };
                 let crawling = lane.v < 1.0;
                 let since = if crawling { Some(crawling_since.unwrap_or(t)) } else { None };
@@ -398,4 +398,3 @@ impl World for MergeWorld {
         ]
     }
 }
-

@@ -2,8 +2,8 @@
 //! parameter files that are compiled into the binary and can be overridden.
 
 pub mod contested_merge;
-pub mod world;
 pub mod pedestrian_feint;
+pub mod world;
 pub mod yield_standoff;
 
 use serde::{Deserialize, Serialize};
@@ -25,11 +25,8 @@ pub enum ScenarioKind {
 }
 
 impl ScenarioKind {
-    pub const ALL: [ScenarioKind; 3] = [
-        ScenarioKind::YieldStandoff,
-        ScenarioKind::PedestrianFeint,
-        ScenarioKind::ContestedMerge,
-    ];
+    pub const ALL: [ScenarioKind; 3] =
+        [ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -72,10 +69,7 @@ pub struct UnknownScenario(String);
 impl FromStr for ScenarioKind {
     type Err = UnknownScenario;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        ScenarioKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| UnknownScenario(s.to_string()))
+        ScenarioKind::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| UnknownScenario(s.to_string()))
     }
 }
 
@@ -232,19 +226,8 @@ pub(crate) struct FieldCheck<'a> {
 }
 
 impl FieldCheck<'_> {
-    pub fn positive(&self, field: &str, x: f64) -> Result<(), ScenarioError> {
-        if x.is_finite() && x > 0.0 {
-            Ok(())
-        } else {
-            Err(self.err(field, format!("must be a positive number, got {x}")))
-        }
-    }
     pub fn non_negative(&self, field: &str, x: f64) -> Result<(), ScenarioError> {
-        if x.is_finite() && x >= 0.0 {
-            Ok(())
-        } else {
-            Err(self.err(field, format!("must be a number >= 0, got {x}")))
-        }
+        if x.is_finite() && x >= 0.0 { Ok(()) } else { Err(self.err(field, format!("must be a number >= 0, got {x}"))) }
     }
     pub fn within(&self, field: &str, x: f64, lo: f64, hi: f64) -> Result<(), ScenarioError> {
         if x.is_finite() && x >= lo && x <= hi {
@@ -278,10 +261,9 @@ pub struct Common {
 impl Common {
     fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
         if self.turn_budget == 0 || self.turn_budget > crate::sim::MAX_TURNS {
-            return Err(c.err(
-                "turn_budget",
-                format!("must be 1..={}, got {}", crate::sim::MAX_TURNS, self.turn_budget),
-            ));
+            return Err(
+                c.err("turn_budget", format!("must be 1..={}, got {}", crate::sim::MAX_TURNS, self.turn_budget))
+            );
         }
         c.within("speed_limit_mps", self.speed_limit_mps, 3.0, 20.0)
     }
@@ -356,8 +338,10 @@ impl ScenarioConfig {
         })?;
         let mut body = table;
         body.remove("scenario");
-        let parse_err = |e: toml::de::Error| ScenarioError::Parse { path: path.into(), message: one_line(&e.to_string()) };
-        let body_text = toml::to_string(&body).map_err(|e| ScenarioError::Parse { path: path.into(), message: e.to_string() })?;
+        let parse_err =
+            |e: toml::de::Error| ScenarioError::Parse { path: path.into(), message: one_line(&e.to_string()) };
+        let body_text =
+            toml::to_string(&body).map_err(|e| ScenarioError::Parse { path: path.into(), message: e.to_string() })?;
         let check = FieldCheck { path };
         let config = match kind {
             ScenarioKind::YieldStandoff => {
@@ -381,7 +365,8 @@ impl ScenarioConfig {
 
     pub fn from_file(path: &Path) -> Result<ScenarioConfig, ScenarioError> {
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read { path: shown.clone(), source })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ScenarioError::Read { path: shown.clone(), source })?;
         Self::from_toml(&shown, &text)
     }
 }
@@ -389,7 +374,11 @@ impl ScenarioConfig {
 /// Collapse a multi-line parser message (toml prints a source excerpt) into
 /// one line.
 fn one_line(s: &str) -> String {
-    s.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('|') && !l.chars().all(|c| c == '^' || c == ' ')).collect::<Vec<_>>().join("; ")
+    s.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('|') && !l.chars().all(|c| c == '^' || c == ' '))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// The scenario parameters in force for a run: the built-ins, with any

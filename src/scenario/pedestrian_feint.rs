@@ -113,12 +113,20 @@ impl PedestrianParams {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     /// Standing at the start until `until`.
-    Wait { until: f64 },
+    Wait {
+        until: f64,
+    },
     /// Crossing the road at `speed`.
-    Cross { speed: f64 },
+    Cross {
+        speed: f64,
+    },
     /// Moving toward the kerb stop at `speed`, then lingering.
-    ToKerb { speed: f64 },
-    Linger { since: f64 },
+    ToKerb {
+        speed: f64,
+    },
+    Linger {
+        since: f64,
+    },
     /// Walking away from the road.
     StepBack,
 }
@@ -265,7 +273,14 @@ impl World for PedestrianWorld {
     fn contact(&self, ego: &Body) -> Contact {
         let e = car_box(ego.s, 0.0, true);
         let p = self.ped_box();
-        let ttc = crossing_ttc(-X_HALF - ego.s, X_HALF - ego.s, ego.v, PATH_NEAR - self.lat, PATH_FAR - self.lat, self.vel.max(0.0));
+        let ttc = crossing_ttc(
+            -X_HALF - ego.s,
+            X_HALF - ego.s,
+            ego.v,
+            PATH_NEAR - self.lat,
+            PATH_FAR - self.lat,
+            self.vel.max(0.0),
+        );
         Contact { gap_m: e.gap(&p), ttc_s: ttc, collision: e.overlaps(&p) }
     }
 

@@ -85,7 +85,14 @@ impl History {
 /// Time until two 1-D occupancy intervals overlap when each body moves at
 /// constant speed: body A occupies its zone for s in (a_in, a_out) and body
 /// B for (b_in, b_out), measured as distances still to travel.
-pub fn crossing_ttc(a_dist_in: f64, a_dist_out: f64, a_v: f64, b_dist_in: f64, b_dist_out: f64, b_v: f64) -> Option<f64> {
+pub fn crossing_ttc(
+    a_dist_in: f64,
+    a_dist_out: f64,
+    a_v: f64,
+    b_dist_in: f64,
+    b_dist_out: f64,
+    b_v: f64,
+) -> Option<f64> {
     let window = |d_in: f64, d_out: f64, v: f64| -> Option<(f64, f64)> {
         if d_out <= 0.0 {
             return None; // already through

@@ -98,9 +98,13 @@ enum Phase {
     /// Braking to stop at the stop line (yielder), or the tier-3 common
     /// profile at a fixed rate (either disposition).
     Braking,
-    Stopped { since: f64 },
+    Stopped {
+        since: f64,
+    },
     /// Driving off or through at `go_accel` (or the bluff's re-acceleration).
-    Going { accel: f64 },
+    Going {
+        accel: f64,
+    },
 }
 
 pub struct YieldWorld {

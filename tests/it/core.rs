@@ -1,0 +1,300 @@
+//! Simulator, graders, invariants and CLI error paths.
+
+use negotiator::action::{Action, Maneuver};
+use negotiator::baselines::{GridSpec, run_grid};
+use negotiator::episode::{Episode, EpisodeSpec, Outcome, draw_disposition};
+use negotiator::observation::{Observation, render_scene};
+use negotiator::policy::PolicyKind;
+use negotiator::scenario::{ScenarioConfig, ScenarioKind, ScenarioSet, Tier};
+use negotiator::validate;
+use proptest::prelude::*;
+
+fn grid(
+    set: &ScenarioSet,
+    scenarios: &[ScenarioKind],
+    tiers: &[Tier],
+    n: usize,
+) -> Vec<negotiator::baselines::CellSummary> {
+    let spec = GridSpec {
+        scenarios: scenarios.to_vec(),
+        tiers: tiers.to_vec(),
+        policies: PolicyKind::ALL.to_vec(),
+        episodes: n,
+        seed_base: 0,
+    };
+    run_grid(set, &spec, &|_, _| {})
+}
+
+/// Play a fixed action sequence (cycled) and summarise the episode.
+fn golden(kind: ScenarioKind, tier: Tier, seed: u64, actions: &[Action]) -> String {
+    let set = ScenarioSet::default();
+    let mut ep = Episode::new(set.get(kind), tier, seed);
+    ep.record_trajectory();
+    let mut i = 0;
+    while !ep.is_done() {
+        ep.step(actions[i % actions.len()]);
+        i += 1;
+    }
+    let r = ep.finish();
+    let traj = r.trajectory.as_ref().unwrap();
+    let last = traj.last().unwrap();
+    let ego = last.agents[0];
+    let other = last.agents[1];
+    format!(
+        "{} {} turns {} t {:.1} ego ({:.4}, {:.4}) v {:.4} other ({:.4}, {:.4}) v {:.4} reward {:.6} dc {:.3}",
+        r.disposition.name(),
+        r.outcome.name(),
+        r.decisions.len(),
+        last.time_s,
+        ego.x,
+        ego.y,
+        ego.v,
+        other.x,
+        other.y,
+        other.v,
+        r.grades.reward,
+        r.grades.decision_correctness
+    )
+}
+
+#[test]
+fn golden_vectors_pin_trajectories() {
+    let go = Action::new(Maneuver::Proceed, 1.0);
+    let wait = [
+        Action::new(Maneuver::Yield, 0.3),
+        Action::new(Maneuver::Yield, 0.3),
+        Action::new(Maneuver::NudgeForward, 0.5),
+    ];
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.9 ego (0.0000, 21.0809) v 12.0000 other (-8.0204, 0.0000) v 2.3872 reward 0.991416 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 40 t 20.0 ego (0.0000, -21.3448) v 0.0000 other (87.8439, 0.0000) v 11.7773 reward -0.210055 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.7 ego (20.8623, 0.0000) v 12.0000 other (0.0000, -1.9013) v 0.0000 reward 0.989250 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 40 t 20.0 ego (-25.9403, 0.0000) v 0.0000 other (0.0000, 6.8295) v 0.0000 reward -0.200122 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (12.5254, 0.0000) v 12.7000 reward -1.000000 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 40 t 20.0 ego (0.4020, -3.4531) v 0.0000 other (102.4303, 0.0000) v 11.7765 reward -0.270144 dc 0.000");
+}
+
+#[test]
+fn disposition_is_drawn_fifty_fifty() {
+    for kind in ScenarioKind::ALL {
+        let n = 4000;
+        let go = (0..n)
+            .filter(|&seed| draw_disposition(EpisodeSpec { scenario: kind, tier: Tier::T1, seed }).ego_should_go())
+            .count();
+        let share = go as f64 / n as f64;
+        assert!((0.46..0.54).contains(&share), "{kind}: {share}");
+    }
+}
+
+#[test]
+fn same_seed_and_actions_give_the_same_episode() {
+    let set = ScenarioSet::default();
+    for kind in ScenarioKind::ALL {
+        let run = || {
+            let mut p = PolicyKind::Random.build();
+            negotiator::episode::run_episode(set.get(kind), Tier::T2, 42, p.as_mut())
+        };
+        assert_eq!(run(), run());
+    }
+}
+
+// --- each invariant fails on the fault it guards against -------------------
+
+#[test]
+fn hidden_disposition_check_catches_a_leak() {
+    let set = ScenarioSet::default();
+    let honest = |e: &Episode| render_scene(e.observation());
+    let leaky = |e: &Episode| format!("{}(driver seems {})", render_scene(e.observation()), e.disposition());
+    let (ok, observations) = validate::check_hidden_disposition(&set, &ScenarioKind::ALL, &Tier::ALL, 0..20, &honest);
+    assert!(ok.pass, "{}", ok.figure);
+    assert!(!observations.is_empty());
+    let (bad, _) = validate::check_hidden_disposition(&set, &ScenarioKind::ALL, &[Tier::T1], 0..5, &leaky);
+    assert!(!bad.pass);
+}
+
+#[test]
+fn delayed_reveal_keeps_several_turns_identical() {
+    // On the delayed tiers more than the first observation must be compared.
+    let set = ScenarioSet::default();
+    for kind in [ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint] {
+        let (check, obs) = validate::check_hidden_disposition(&set, &[kind], &[Tier::T2], 0..10, &|e: &Episode| {
+            render_scene(e.observation())
+        });
+        assert!(check.pass);
+        assert!(obs.len() > 30, "{kind}: only {} observations before the reveal", obs.len());
+    }
+}
+
+#[test]
+fn round_trip_check_catches_a_lossy_renderer() {
+    let set = ScenarioSet::default();
+    let (_, observations) =
+        validate::check_hidden_disposition(&set, &ScenarioKind::ALL, &Tier::ALL, 0..10, &|e: &Episode| {
+            render_scene(e.observation())
+        });
+    assert!(validate::check_round_trip(&observations, &render_scene).pass);
+    // A renderer that prints the ego's speed to whole metres per second.
+    let lossy = |o: &Observation| {
+        let mut coarse = *o;
+        coarse.ego.speed_mps = o.ego.speed_mps.round();
+        render_scene(&coarse)
+    };
+    assert!(!validate::check_round_trip(&observations, &lossy).pass);
+}
+
+#[test]
+fn anti_gaming_check_catches_a_harmless_other_car() {
+    // A committed car that arrives 5 s late never meets "always proceed".
+    let mut set = ScenarioSet::default();
+    let text = include_str!("../../scenarios/yield_standoff.toml")
+        .replace("arrival_offset_s = [-0.3, 0.3]", "arrival_offset_s = [4.5, 5.0]");
+    set.replace(ScenarioConfig::from_toml("harmless.toml", &text).unwrap());
+    let cells = grid(&set, &[ScenarioKind::YieldStandoff], &[Tier::T1], 40);
+    assert!(!validate::check_anti_gaming(&cells).pass);
+    let honest = grid(&ScenarioSet::default(), &[ScenarioKind::YieldStandoff], &[Tier::T1], 40);
+    assert!(validate::check_anti_gaming(&honest).pass);
+}
+
+#[test]
+fn tiers_bite_check_catches_a_toothless_bluff() {
+    let tiers = [Tier::T1, Tier::T3];
+    let mut cells = grid(&ScenarioSet::default(), &[ScenarioKind::YieldStandoff], &tiers, 60);
+    assert!(validate::check_tiers_bite(&cells).pass);
+    // A bluff the cue follower survives as well as the expert does.
+    let expert = cells.iter().find(|c| c.cell.tier == Tier::T3 && c.cell.policy == PolicyKind::Expert).unwrap().success;
+    let cf = cells.iter_mut().find(|c| c.cell.tier == Tier::T3 && c.cell.policy == PolicyKind::CueFollower).unwrap();
+    cf.success = expert;
+    assert!(!validate::check_tiers_bite(&cells).pass);
+}
+
+#[test]
+fn solvable_check_catches_an_impossible_budget() {
+    let mut set = ScenarioSet::default();
+    let text = include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = 40", "turn_budget = 8");
+    set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
+    assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
+}
+
+#[test]
+fn reward_ordering_and_correctness_checks_catch_inversions() {
+    let mut cells = grid(&ScenarioSet::default(), &[ScenarioKind::ContestedMerge], &[Tier::T1], 30);
+    assert!(validate::check_reward_ordering(&cells).pass);
+    assert!(validate::check_correctness(&cells).pass);
+    // A reward function that paid a timeout more than a success.
+    let mut inverted = cells.clone();
+    let i = inverted.iter().position(|c| c.span(Outcome::Timeout).count > 0).unwrap();
+    inverted[i].spans[2].max = 0.95;
+    assert!(!validate::check_reward_ordering(&inverted).pass);
+    // A constant policy credited with reading intent.
+    let j = cells.iter().position(|c| c.cell.policy == PolicyKind::AlwaysStop).unwrap();
+    cells[j].decision_correctness.estimate = 0.9;
+    assert!(!validate::check_correctness(&cells).pass);
+}
+
+// --- properties ---------------------------------------------------------------
+
+fn arb_action() -> impl Strategy<Value = Action> {
+    (0usize..4, -1.0f64..=1.0).prop_map(|(m, a)| Action::new(Maneuver::ALL[m], a))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn physics_invariants_hold_under_any_actions(kind in 0usize..3, tier in 0usize..3, seed in 0u64..10_000, actions in prop::collection::vec(arb_action(), 1..40)) {
+        let set = ScenarioSet::default();
+        let mut ep = Episode::new(set.get(ScenarioKind::ALL[kind]), Tier::ALL[tier], seed);
+        ep.record_trajectory();
+        let mut i = 0;
+        while !ep.is_done() {
+            let o = ep.observation();
+            prop_assert!(o.ego.speed_mps >= 0.0);
+            prop_assert!(o.ego.speed_mps <= o.ego.speed_limit_mps + 1e-9);
+            prop_assert!(o.ego.accel_mps2 >= -8.0 - 1e-9 && o.ego.accel_mps2 <= 3.0 + 1e-9);
+            ep.step(actions[i % actions.len()]);
+            i += 1;
+        }
+        let r = ep.finish();
+        prop_assert!(r.decisions.len() <= 40);
+        prop_assert!((-1.0..=1.0).contains(&r.grades.reward));
+        prop_assert!((0.0..=1.0).contains(&r.grades.decision_correctness));
+        // Ego never moves backwards.
+        let ys: Vec<f64> = r.trajectory.unwrap().iter().map(|p| if kind == 0 { p.agents[0].y } else { p.agents[0].x }).collect();
+        prop_assert!(ys.windows(2).all(|w| w[1] >= w[0] - 1e-9));
+    }
+
+    #[test]
+    fn scene_text_round_trips(kind in 0usize..3, tier in 0usize..3, seed in 0u64..100_000, actions in prop::collection::vec(arb_action(), 1..10)) {
+        let set = ScenarioSet::default();
+        let mut ep = Episode::new(set.get(ScenarioKind::ALL[kind]), Tier::ALL[tier], seed);
+        let mut i = 0;
+        while !ep.is_done() {
+            let o = *ep.observation();
+            let parsed = negotiator::observation::parse_scene(&render_scene(&o));
+            prop_assert_eq!(parsed, Ok(o.rounded()));
+            ep.step(actions[i % actions.len()]);
+            i += 1;
+        }
+    }
+}
+
+// --- command line ---------------------------------------------------------------
+
+fn negotiator(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_negotiator")).args(args).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn cli_errors_are_one_line_with_exit_code_2() {
+    let dir = std::env::temp_dir().join(format!("negotiator-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad_field = dir.join("bad.toml");
+    std::fs::write(
+        &bad_field,
+        include_str!("../../scenarios/contested_merge.toml").replace("taper_length_m = 30.0", "taper_length_m = -3.0"),
+    )
+    .unwrap();
+    let unknown_field = dir.join("unknown.toml");
+    std::fs::write(
+        &unknown_field,
+        include_str!("../../scenarios/yield_standoff.toml").replace("[tier2]", "[tier2]\nwobble = 1"),
+    )
+    .unwrap();
+    let bad = bad_field.to_str().unwrap();
+    let unknown = unknown_field.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["baselines", "--scenario", "four_way_stop"], "unknown scenario 'four_way_stop'"),
+        (vec!["baselines", "--policy", "psychic"], "unknown policy 'psychic'"),
+        (vec!["baselines", "--tier", "7"], "unknown tier '7'"),
+        (vec!["baselines", "-n", "0"], "--episodes"),
+        (vec!["baselines", "--scenario-file", bad], "road.taper_length_m"),
+        (vec!["baselines", "--scenario-file", unknown], "wobble"),
+        (vec!["validate", "--scenario-file", "/nonexistent/x.toml"], "/nonexistent/x.toml"),
+    ];
+    for (args, needle) in cases {
+        let (code, _, err) = negotiator(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.starts_with("Error: ") && err.trim_end().lines().count() == 1, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    let (code, _, err) = negotiator(&["baselines", "--frobnicate"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(!err.contains("panicked"));
+}
+
+#[test]
+fn baselines_csv_has_the_documented_columns() {
+    let (code, out, err) =
+        negotiator(&["baselines", "-n", "5", "--scenario", "yield_standoff", "--tier", "1,3", "--format", "csv"]);
+    assert_eq!(code, 0, "{err}");
+    let mut lines = out.lines();
+    assert!(lines.next().unwrap().starts_with("scenario,tier,policy,n,success,success_lo,success_hi,collision"));
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 2 * 6);
+    assert!(rows[0].starts_with("yield_standoff,1,expert,5,"));
+    assert!(rows[6].starts_with("yield_standoff,3,expert,5,"));
+}
