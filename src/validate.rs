@@ -33,12 +33,7 @@ impl Check {
     }
 }
 
-fn find<'a>(
-    cells: &'a [CellSummary],
-    scenario: ScenarioKind,
-    tier: Tier,
-    policy: PolicyKind,
-) -> Option<&'a CellSummary> {
+fn find(cells: &[CellSummary], scenario: ScenarioKind, tier: Tier, policy: PolicyKind) -> Option<&CellSummary> {
     cells.iter().find(|c| c.cell == Cell { scenario, tier, policy })
 }
 

@@ -1,11 +1,340 @@
-//! `negotiator eval` (placeholder until written).
+//! `negotiator eval`: flags, validation, and the run's exit code.
+//!
+//! Run directory: `--output DIR` (default `results/`) is the parent;
+//! the run's own directory is `DIR/<model>-<config hash>` (the model id made
+//! directory-safe, and the first 8 hex digits of the hash of everything that
+//! changes how an episode plays: model, request parameters, history window,
+//! system prompt, scenario parameters). So the same command always lands in
+//! the same directory and resumes it, and changing the temperature starts a
+//! new run instead of mixing two. `--run-name NAME` picks the directory name
+//! explicitly; an existing run there with another configuration is refused.
+
+use super::{RefusedError, exit, parse_list, usage};
+use crate::eval::config::{EndpointsFile, HistoryWindow, RunConfig, Shard, fnv_hex, sanitize_name};
+use crate::eval::progress::Mode;
+use crate::eval::{EvalError, EvalOptions};
+use crate::llm::{ClientConfig, RetryPolicy};
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use reqwest::header::{HeaderMap, HeaderName, HeaderValue};
+use serde_json::{Map, Value};
+use std::path::PathBuf;
 use std::process::ExitCode;
+use std::time::Duration;
 
 #[derive(Debug, clap::Args)]
-pub struct EvalArgs {}
+pub struct EvalArgs {
+    /// Model id sent to the endpoint, or a model alias from the endpoints
+    /// file (which then also picks the endpoint).
+    #[arg(long)]
+    pub model: String,
+    /// A named endpoint from the endpoints file (openai, openrouter, vllm,
+    /// ollama, local, ...).
+    #[arg(long)]
+    pub endpoint: Option<String>,
+    /// Base URL of an OpenAI-compatible API (overrides the endpoint's),
+    /// e.g. http://127.0.0.1:8765/v1.
+    #[arg(long)]
+    pub base_url: Option<String>,
+    /// Environment variable holding the API key (overrides the endpoint's).
+    /// The key is sent as a Bearer token and never written anywhere.
+    #[arg(long)]
+    pub api_key_var: Option<String>,
+    /// Endpoints file to use instead of the built-in configs/endpoints.toml.
+    #[arg(long)]
+    pub endpoints_file: Option<PathBuf>,
+    /// Scenarios: all, or a comma-separated list.
+    #[arg(long, default_value = "all")]
+    pub scenario: String,
+    /// Tiers: all, or a comma-separated list of 1, 2, 3.
+    #[arg(long, default_value = "1")]
+    pub tier: String,
+    /// Seeds per scenario and tier.
+    #[arg(short = 'n', long = "seeds", default_value_t = 200)]
+    pub seeds: u64,
+    /// Rollouts per seed (they differ only through the model's sampling).
+    #[arg(short = 'r', long = "rollouts", default_value_t = 1)]
+    pub rollouts: u32,
+    /// Episodes in flight at once.
+    #[arg(short = 'c', long = "concurrency", default_value_t = 32)]
+    pub concurrency: usize,
+    /// First seed; seeds are BASE .. BASE+n-1.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[arg(long)]
+    pub temperature: Option<f64>,
+    #[arg(long)]
+    pub max_tokens: Option<u64>,
+    /// Extra request parameters as a JSON object, merged into every request
+    /// (e.g. '{"top_p": 0.9, "seed": 1}').
+    #[arg(long)]
+    pub sampling_args: Option<String>,
+    /// Extra request header 'Name: value' (repeatable). Only header names
+    /// are recorded in run.json.
+    #[arg(long = "header")]
+    pub headers: Vec<String>,
+    /// History sent to the model: full, or last:K earlier turns.
+    #[arg(long, default_value = "full")]
+    pub history: String,
+    /// Ask for a response format: json_object (or text).
+    #[arg(long)]
+    pub response_format: Option<String>,
+    /// Parent directory of run directories.
+    #[arg(long, default_value = "results")]
+    pub output: PathBuf,
+    /// Run directory name under --output (default: <model>-<config hash>).
+    #[arg(long)]
+    pub run_name: Option<String>,
+    /// Retries per request after the first attempt.
+    #[arg(long, default_value_t = 10)]
+    pub max_retries: u32,
+    /// Per-request timeout in seconds.
+    #[arg(long, default_value_t = 120.0)]
+    pub request_timeout: f64,
+    /// First retry backoff in milliseconds (doubled per retry, jittered).
+    #[arg(long, default_value_t = 500)]
+    pub backoff_base_ms: u64,
+    /// Cap on the exponential backoff in seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub backoff_max: f64,
+    /// Stop starting episodes once this invocation has spent this many
+    /// tokens (episodes in flight finish).
+    #[arg(long)]
+    pub max_total_tokens: Option<u64>,
+    /// Run shard K of N: seed index i runs when i mod N = K-1.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Scenario parameter file replacing the built-in one it declares
+    /// (repeatable).
+    #[arg(long = "scenario-file")]
+    pub scenario_files: Vec<PathBuf>,
+    /// Leave plan-view trajectories out of rollouts.jsonl.
+    #[arg(long)]
+    pub no_trajectories: bool,
+    /// Seconds between plain progress lines (when stderr is not a terminal).
+    #[arg(long, default_value_t = 5.0)]
+    pub progress_interval: f64,
+    /// No progress output.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
+}
+
+fn positive_secs(x: f64, flag: &str) -> anyhow::Result<Duration> {
+    if x.is_finite() && x > 0.0 && x < 1e7 {
+        Ok(Duration::from_secs_f64(x))
+    } else {
+        Err(usage(format!("{flag}: expected a positive number of seconds, got {x}")))
+    }
+}
 
 impl EvalArgs {
-    pub fn run(self) -> anyhow::Result<ExitCode> {
-        Err(super::usage("'negotiator eval' is not available yet"))
+    /// Validate the flags into options. Errors are usage errors (exit 2).
+    pub fn options(&self) -> anyhow::Result<EvalOptions> {
+        let file = match &self.endpoints_file {
+            Some(p) => {
+                let text =
+                    std::fs::read_to_string(p).map_err(|e| usage(format!("--endpoints-file {}: {e}", p.display())))?;
+                EndpointsFile::parse(&p.display().to_string(), &text).map_err(|e| usage(e.to_string()))?
+            }
+            None => EndpointsFile::builtin(),
+        };
+        // --model may be an alias that names an endpoint and a model id.
+        let alias = file.models.get(&self.model).filter(|_| self.endpoint.is_none() && self.base_url.is_none());
+        let model = alias.map_or(self.model.clone(), |a| a.id.clone());
+        if model.trim().is_empty() {
+            return Err(usage("--model: empty model name"));
+        }
+        let endpoint_name = self.endpoint.clone().or_else(|| alias.map(|a| a.endpoint.clone()));
+        let endpoint = match &endpoint_name {
+            Some(name) => Some(file.endpoint(name).map_err(|e| usage(format!("--endpoint: {e}")))?.clone()),
+            None => None,
+        };
+        let base_url = match (&self.base_url, &endpoint) {
+            (Some(u), _) => u.clone(),
+            (None, Some(e)) => e.base_url.clone(),
+            (None, None) => {
+                return Err(usage(format!(
+                    "--model '{}' is not an alias in the endpoints file: give --endpoint NAME or --base-url URL (known endpoints: {})",
+                    self.model,
+                    file.endpoints.keys().cloned().collect::<Vec<_>>().join(", ")
+                )));
+            }
+        };
+        let parsed_url = reqwest::Url::parse(&base_url).map_err(|e| usage(format!("--base-url '{base_url}': {e}")))?;
+        if !matches!(parsed_url.scheme(), "http" | "https") {
+            return Err(usage(format!("--base-url '{base_url}': expected an http or https URL")));
+        }
+
+        let api_key_var = self.api_key_var.clone().or_else(|| endpoint.as_ref().and_then(|e| e.api_key_env.clone()));
+        let api_key = match &api_key_var {
+            Some(var) => match std::env::var(var) {
+                Ok(v) if !v.trim().is_empty() => Some(v.trim().to_string()),
+                _ => {
+                    return Err(usage(format!(
+                        "the API key variable ${var} is not set (export {var}=... or choose another with --api-key-var)"
+                    )));
+                }
+            },
+            None => None,
+        };
+
+        let mut headers = HeaderMap::new();
+        let endpoint_headers = endpoint.as_ref().map(|e| e.headers.clone()).unwrap_or_default();
+        let flag_headers = self.headers.iter().map(|h| {
+            h.split_once(':')
+                .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
+                .ok_or_else(|| usage(format!("--header '{}': expected 'Name: value'", clip_header(h))))
+        });
+        for kv in endpoint_headers.into_iter().map(Ok).chain(flag_headers) {
+            let (k, v) = kv?;
+            let name = HeaderName::from_bytes(k.as_bytes())
+                .map_err(|_| usage(format!("--header: invalid header name '{k}'")))?;
+            let mut value =
+                HeaderValue::from_str(&v).map_err(|_| usage(format!("--header {k}: invalid header value")))?;
+            value.set_sensitive(true);
+            headers.insert(name, value);
+        }
+
+        // Request parameters: endpoint defaults, alias defaults, then flags.
+        let mut params: Map<String, Value> = endpoint.as_ref().map(|e| e.sampling.clone()).unwrap_or_default();
+        if let Some(a) = alias {
+            params.extend(a.sampling.clone());
+        }
+        if let Some(raw) = &self.sampling_args {
+            match serde_json::from_str::<Value>(raw) {
+                Ok(Value::Object(m)) => params.extend(m),
+                Ok(_) => return Err(usage("--sampling-args: expected a JSON object")),
+                Err(e) => return Err(usage(format!("--sampling-args: {e}"))),
+            }
+        }
+        if let Some(t) = self.temperature {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(usage(format!("--temperature: expected a non-negative number, got {t}")));
+            }
+            params.insert("temperature".into(), Value::from(t));
+        }
+        if let Some(m) = self.max_tokens {
+            if m == 0 {
+                return Err(usage("--max-tokens: must be at least 1"));
+            }
+            params.insert("max_tokens".into(), Value::from(m));
+        }
+        if let Some(f) = &self.response_format {
+            if !matches!(f.as_str(), "json_object" | "text") {
+                return Err(usage(format!("--response-format: expected json_object or text, got '{f}'")));
+            }
+            params.insert("response_format".into(), serde_json::json!({ "type": f }));
+        }
+        for reserved in ["model", "messages", "stream", "n"] {
+            if params.contains_key(reserved) {
+                return Err(usage(format!("--sampling-args: '{reserved}' is set by negotiator itself")));
+            }
+        }
+
+        let history: HistoryWindow = self.history.parse().map_err(|e| usage(format!("--history: {e}")))?;
+        let shard: Shard = match &self.shard {
+            Some(s) => s.parse().map_err(|e| usage(format!("--shard: {e}")))?,
+            None => Shard::WHOLE,
+        };
+        let scenarios = parse_list(&self.scenario, &ScenarioKind::ALL, "--scenario")?;
+        let tiers = parse_list(&self.tier, &Tier::ALL, "--tier")?;
+        if self.seeds == 0 {
+            return Err(usage("-n: must be at least 1"));
+        }
+        if self.rollouts == 0 {
+            return Err(usage("-r: must be at least 1"));
+        }
+        if self.concurrency == 0 {
+            return Err(usage("-c: must be at least 1"));
+        }
+        let scenario_set = ScenarioSet::with_overrides(&self.scenario_files)?;
+        let scenarios_json: Vec<Value> = ScenarioKind::ALL
+            .iter()
+            .map(|k| serde_json::to_value(scenario_set.get(*k)).expect("scenario config serialises"))
+            .collect();
+
+        let config = RunConfig {
+            model: model.clone(),
+            request_params: params,
+            history,
+            prompt_hash: fnv_hex(crate::eval::prompt::SYSTEM_PROMPT),
+            scenarios_hash: fnv_hex(&Value::Array(scenarios_json).to_string()),
+        };
+        let run_name = match &self.run_name {
+            Some(n) => {
+                if n.is_empty() || n.contains(['/', '\\']) || n == "." || n == ".." {
+                    return Err(usage(format!("--run-name '{n}': expected a plain directory name")));
+                }
+                n.clone()
+            }
+            None => format!("{}-{}", sanitize_name(&model), &config.hash()[..8]),
+        };
+        let retry = RetryPolicy {
+            max_retries: self.max_retries,
+            base: Duration::from_millis(self.backoff_base_ms),
+            max_backoff: positive_secs(self.backoff_max, "--backoff-max")?,
+            ..RetryPolicy::default()
+        };
+        Ok(EvalOptions {
+            config,
+            client: ClientConfig {
+                base_url: base_url.trim_end_matches('/').to_string(),
+                api_key,
+                headers,
+                request_timeout: positive_secs(self.request_timeout, "--request-timeout")?,
+                retry,
+            },
+            api_key_var,
+            scenario_set,
+            scenarios,
+            tiers,
+            seeds: self.seeds,
+            rollouts: self.rollouts,
+            base_seed: self.seed,
+            shard,
+            concurrency: self.concurrency,
+            run_dir: self.output.join(run_name),
+            max_total_tokens: self.max_total_tokens,
+            progress: Mode::detect(self.quiet),
+            progress_interval: positive_secs(self.progress_interval, "--progress-interval")?,
+            trajectories: !self.no_trajectories,
+        })
     }
+
+    pub fn run(self) -> anyhow::Result<ExitCode> {
+        let options = self.options()?;
+        let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+        let outcome = match runtime.block_on(crate::eval::run(options)) {
+            Ok(o) => o,
+            Err(EvalError::Refused(msg)) => return Err(RefusedError(msg).into()),
+            Err(EvalError::Store(e @ crate::eval::store::StoreError::ConfigChanged { .. })) => {
+                return Err(usage(e.to_string()));
+            }
+            Err(e) => return Err(e.into()),
+        };
+        print!("{}", crate::eval::summary::render(&outcome.summary));
+        println!("results: {}", outcome.run_dir.display());
+        if outcome.missing > 0 {
+            let why = if outcome.interrupted {
+                "interrupted".to_string()
+            } else if let Some(streak) = outcome.stopped_by_outage {
+                format!("the endpoint looks down: stopped after {streak} consecutive infrastructure errors")
+            } else if outcome.stopped_by_budget {
+                "stopped by --max-total-tokens, or infrastructure errors".to_string()
+            } else {
+                "infrastructure errors".to_string()
+            };
+            eprintln!(
+                "{} episode(s) missing ({why}); they are excluded from the scores above. Re-run the same command to resume them.",
+                outcome.missing
+            );
+            return Ok(ExitCode::from(exit::FAILURE));
+        }
+        Ok(ExitCode::SUCCESS)
+    }
+}
+
+fn clip_header(h: &str) -> String {
+    // Never echo a possible credential back in full.
+    let start: String = h.chars().take(6).collect();
+    if start.len() < h.len() { format!("{start}...") } else { start }
 }

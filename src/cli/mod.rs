@@ -53,7 +53,7 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Play episodes with a language model behind an OpenAI-compatible endpoint.
-    Eval(eval::EvalArgs),
+    Eval(Box<eval::EvalArgs>),
     /// Run the non-LLM baseline policies on every scenario and tier.
     Baselines(baselines::BaselinesArgs),
     /// Check the benchmark's invariants; non-zero exit if any fails.
@@ -88,9 +88,9 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
 }
 
 /// `all` or a comma-separated list, for --scenario / --tier.
-pub fn parse_list<T: std::str::FromStr>(value: &str, all: &[T], flag: &str) -> anyhow::Result<Vec<T>>
+pub fn parse_list<T>(value: &str, all: &[T], flag: &str) -> anyhow::Result<Vec<T>>
 where
-    T: Clone,
+    T: Clone + std::str::FromStr,
     T::Err: std::fmt::Display,
 {
     if value.trim() == "all" {

@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# Speed and memory of `negotiator eval` against `negotiator serve` (issue 3):
+#
+#   1. Harness overhead: serve --latency-ms 0, eval -c 64, every scenario and
+#      tier, n 200: decision turns per second (target >= 2,000 with both
+#      processes on this 2-core machine).
+#   2. Latency efficiency: serve --latency-ms 500, eval -c 100, every scenario
+#      and tier, n 200 (LATENCY_TIERS=1 for tier 1 only, a shorter run with a
+#      relatively longer tail): wall time against the ideal
+#      (total turns x 0.5 s / 100); target within 10%. The ideal assumes
+#      perfect packing; what is lost is the tail, when fewer than 100
+#      episodes are left in flight (about half an episode's length).
+#   3. Peak memory (max RSS, /usr/bin/time -v) of eval in run 1: an n 200 run
+#      of every scenario and tier; target under 100 MB.
+#
+# Usage: scripts/bench_eval.sh [OUT_DIR]   (default: a fresh temporary dir)
+# Needs: cargo, /usr/bin/time (Debian package `time`), python3.
+set -euo pipefail
+
+cd "$(dirname "$0")/.."
+OUT=${1:-$(mktemp -d -t negotiator-bench.XXXXXX)}
+mkdir -p "$OUT"
+BIN=target/release/negotiator
+
+cargo build --release --quiet
+[ -x /usr/bin/time ] || { echo "needs /usr/bin/time (apt-get install -y time)" >&2; exit 1; }
+
+SERVE_PID=""
+cleanup() { if [ -n "$SERVE_PID" ]; then kill "$SERVE_PID" 2>/dev/null || true; wait "$SERVE_PID" 2>/dev/null || true; fi; }
+trap cleanup EXIT
+
+# Start `serve` on a free port; sets SERVE_PID and BASE_URL.
+start_serve() {
+  local log="$OUT/serve-$1.out"
+  shift
+  "$BIN" serve --policy expert --port 0 "$@" >"$log" 2>"$log.err" &
+  SERVE_PID=$!
+  for _ in $(seq 100); do
+    if grep -q '^listening on ' "$log" 2>/dev/null; then break; fi
+    sleep 0.05
+  done
+  BASE_URL=$(sed -n 's/^listening on //p' "$log")
+  [ -n "$BASE_URL" ] || { echo "serve did not start" >&2; exit 1; }
+}
+
+stop_serve() { kill "$SERVE_PID"; wait "$SERVE_PID" 2>/dev/null || true; SERVE_PID=""; }
+
+# Field of the last invocation in a run's run.json.
+inv() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['last_invocation'][sys.argv[2]])" "$1" "$2"; }
+
+echo "== 1 + 3: harness overhead and peak memory (latency 0, -c 64, all scenarios x tiers, n 200)"
+start_serve overhead --latency-ms 0
+/usr/bin/time -v "$BIN" eval --base-url "$BASE_URL" --model expert --scenario all --tier all -n 200 -c 64 \
+  --output "$OUT/overhead" --run-name run --quiet >"$OUT/overhead.summary" 2>"$OUT/overhead.time"
+stop_serve
+RUN="$OUT/overhead/run/run.json"
+TURNS=$(inv "$RUN" turns)
+WALL=$(inv "$RUN" wall_s)
+RSS_KB=$(sed -n 's/.*Maximum resident set size (kbytes): //p' "$OUT/overhead.time")
+python3 - "$TURNS" "$WALL" "$RSS_KB" <<'EOF'
+import sys
+turns, wall, rss = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3])
+rate = turns / wall
+print(f"episodes 1800, decision turns {turns}, wall {wall:.2f} s -> {rate:.0f} turns/s (target >= 2000): {'PASS' if rate >= 2000 else 'FAIL'}")
+print(f"eval peak RSS {rss / 1024:.1f} MB (target < 100 MB): {'PASS' if rss < 100 * 1024 else 'FAIL'}")
+EOF
+
+LATENCY_TIERS=${LATENCY_TIERS:-all}
+echo "== 2: latency efficiency (latency 500 ms, -c 100, all scenarios, tiers $LATENCY_TIERS, n 200)"
+start_serve latency --latency-ms 500
+"$BIN" eval --base-url "$BASE_URL" --model expert --scenario all --tier "$LATENCY_TIERS" -n 200 -c 100 \
+  --output "$OUT/latency" --run-name run --quiet >"$OUT/latency.summary" 2>"$OUT/latency.err"
+stop_serve
+RUN="$OUT/latency/run/run.json"
+TURNS=$(inv "$RUN" turns)
+WALL=$(inv "$RUN" wall_s)
+python3 - "$TURNS" "$WALL" <<'EOF'
+import sys
+turns, wall = int(sys.argv[1]), float(sys.argv[2])
+ideal = turns * 0.5 / 100
+print(f"decision turns {turns}, wall {wall:.2f} s, ideal {ideal:.2f} s -> {wall / ideal:.3f} x ideal (target <= 1.10): {'PASS' if wall <= 1.1 * ideal else 'FAIL'}")
+EOF
+echo "outputs in $OUT"

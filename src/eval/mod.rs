@@ -1,0 +1,622 @@
+//! `negotiator eval`: play episodes with a language model as the policy
+//! (SPEC section 7).
+//!
+//! Layout: [`config`] (endpoints file, run configuration and its hash),
+//! [`prompt`] (system prompt, history window), [`record`] (the
+//! `rollouts.jsonl` line), [`store`] (run directory, resume, the single
+//! writer), [`summary`] (leaderboard), [`progress`] (bar / plain lines).
+//!
+//! Flow: list the selected episode keys, drop the ones `rollouts.jsonl`
+//! already holds, run the rest with at most `concurrency` episodes in flight
+//! (a `JoinSet` bounded by its length), hand each finished episode to the
+//! writer thread as one line, then summarise every finished episode of the
+//! selection.
+
+pub mod config;
+pub mod progress;
+pub mod prompt;
+pub mod record;
+pub mod store;
+pub mod summary;
+
+use crate::action::parse_action;
+use crate::episode::{Episode, Outcome};
+use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, LlmError, Role};
+use crate::observation::render_scene;
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use config::{RunConfig, Shard};
+use progress::{Counters, Mode, Progress};
+use prompt::History;
+use record::{EpisodeKey, InfraErrorRecord, RolloutRecord, RolloutScalars, TurnRecord};
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+use std::time::{Duration, Instant, SystemTime};
+use store::{Invocation, RunInfo, Totals, WriteMsg, Writer};
+use tokio::task::JoinSet;
+
+/// Everything a run needs, validated.
+#[derive(Debug)]
+pub struct EvalOptions {
+    pub config: RunConfig,
+    pub client: ClientConfig,
+    /// Name of the API-key variable, for messages and run.json (never the key).
+    pub api_key_var: Option<String>,
+    pub scenario_set: ScenarioSet,
+    pub scenarios: Vec<ScenarioKind>,
+    pub tiers: Vec<Tier>,
+    pub seeds: u64,
+    pub rollouts: u32,
+    pub base_seed: u64,
+    pub shard: Shard,
+    pub concurrency: usize,
+    pub run_dir: PathBuf,
+    pub max_total_tokens: Option<u64>,
+    pub progress: Mode,
+    pub progress_interval: Duration,
+    /// Keep plan-view trajectories in each line (for plots).
+    pub trajectories: bool,
+}
+
+impl EvalOptions {
+    /// The selected keys in a fixed order: scenario, tier, seed, rollout.
+    pub fn selection(&self) -> Vec<EpisodeKey> {
+        let mut keys = Vec::new();
+        for &scenario in &self.scenarios {
+            for &tier in &self.tiers {
+                for i in (0..self.seeds).filter(|i| self.shard.contains(*i)) {
+                    for rollout in 0..self.rollouts {
+                        keys.push(EpisodeKey { scenario, tier, seed: self.base_seed.wrapping_add(i), rollout });
+                    }
+                }
+            }
+        }
+        keys
+    }
+}
+
+/// How a run ended.
+#[derive(Debug)]
+pub struct RunOutcome {
+    pub summary: summary::Summary,
+    pub run_dir: PathBuf,
+    /// Episodes of the selection still missing (re-run the command).
+    pub missing: usize,
+    pub stopped_by_budget: bool,
+    /// Stopped starting episodes after this many consecutive
+    /// infrastructure errors (the endpoint looks down).
+    pub stopped_by_outage: Option<u32>,
+    pub interrupted: bool,
+}
+
+/// Consecutive infrastructure errors (no episode finishing in between)
+/// after which no new episode is started: each has already spent its whole
+/// retry schedule, so the endpoint is down and carrying on would only burn
+/// hours of backoff. Smaller runs use their concurrency (at least 3).
+const OUTAGE_STREAK: u32 = 8;
+
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    #[error(transparent)]
+    Store(#[from] store::StoreError),
+    #[error("{0}")]
+    Refused(String),
+    #[error("{0}")]
+    Rejected(String),
+    #[error("building the HTTP client: {0}")]
+    Client(String),
+    #[error("an episode task failed: {0}")]
+    Task(String),
+}
+
+/// A finished episode's summary scalars and its line, or why it did not finish.
+type EpisodeResult = Result<(RolloutScalars, String), EpisodeError>;
+
+/// Why an episode did not finish.
+enum EpisodeError {
+    /// Retries ran out: recorded, excluded, re-run next time.
+    Infra { turn: u32, message: String },
+    /// The endpoint refuses the run: stop everything.
+    Fatal(LlmError),
+}
+
+struct Ctx {
+    client: Client,
+    options: EvalOptions,
+    system: ChatMessage,
+    hash: String,
+    counters: Arc<Counters>,
+}
+
+/// Current UTC time as RFC 3339 (`2025-01-31T12:00:00Z`).
+pub fn now_rfc3339() -> String {
+    rfc3339(SystemTime::now())
+}
+
+pub fn rfc3339(t: SystemTime) -> String {
+    let secs = t.duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_secs() as i64).unwrap_or(0);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z", rem / 3600, rem % 3600 / 60, rem % 60)
+}
+
+/// `git rev-parse HEAD` where the command runs, or "unknown".
+pub fn git_revision() -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".to_string())
+}
+
+/// Run (or resume) an evaluation.
+pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
+    let started = Instant::now();
+    let started_at = now_rfc3339();
+    let dir = options.run_dir.clone();
+    std::fs::create_dir_all(&dir)
+        .map_err(|source| store::StoreError::Io { path: dir.display().to_string(), source })?;
+
+    let previous = store::read_run_info(&dir)?;
+    let mut loaded = store::load_rollouts(&dir.join(store::ROLLOUTS))?;
+    store::check_config(&dir, previous.as_ref(), &loaded, &options.config)?;
+    let quiet = options.progress == Mode::Quiet;
+    if !quiet {
+        if loaded.torn_bytes > 0 {
+            eprintln!("note: cut off a torn last line ({} bytes) left by an interrupted run", loaded.torn_bytes);
+        }
+        if loaded.bad_lines > 0 {
+            eprintln!("warning: {} unreadable line(s) in {} are ignored", loaded.bad_lines, store::ROLLOUTS);
+        }
+    }
+
+    let selection = options.selection();
+    let todo: Vec<EpisodeKey> = selection.iter().copied().filter(|k| !loaded.finished.contains_key(k)).collect();
+    if !quiet {
+        let done = selection.len() - todo.len();
+        eprintln!(
+            "run directory {}: {} episodes selected, {} already finished, {} to run",
+            dir.display(),
+            selection.len(),
+            done,
+            todo.len()
+        );
+    }
+
+    let hash = options.config.hash();
+    let run_name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut invocation = Invocation {
+        started_at: started_at.clone(),
+        ended_at: None,
+        status: "running".into(),
+        selection: serde_json::json!({
+            "scenarios": options.scenarios.iter().map(|s| s.name()).collect::<Vec<_>>(),
+            "tiers": options.tiers.iter().map(|t| t.number()).collect::<Vec<_>>(),
+            "seeds": options.seeds,
+            "rollouts": options.rollouts,
+            "base_seed": options.base_seed,
+            "shard": options.shard.to_string(),
+        }),
+        endpoint: serde_json::json!({
+            "base_url": options.client.base_url,
+            "api_key_env": options.api_key_var,
+            // Names only: values may carry credentials.
+            "header_names": options.client.headers.keys().map(|k| k.as_str()).collect::<Vec<_>>(),
+        }),
+        settings: serde_json::json!({
+            "concurrency": options.concurrency,
+            "max_retries": options.client.retry.max_retries,
+            "backoff_base_ms": options.client.retry.base.as_millis() as u64,
+            "backoff_max_s": options.client.retry.max_backoff.as_secs_f64(),
+            "request_timeout_s": options.client.request_timeout.as_secs_f64(),
+            "max_total_tokens": options.max_total_tokens,
+        }),
+        episodes: 0,
+        infra_errors: 0,
+        retries: 0,
+        tokens: 0,
+        turns: 0,
+        wall_s: 0.0,
+    };
+    let prev_totals = previous.as_ref().map(|p| p.totals.clone()).unwrap_or_default();
+    let mut info = RunInfo {
+        run_name,
+        config: options.config.clone(),
+        config_hash: hash.clone(),
+        crate_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_revision: git_revision(),
+        started_at: previous.as_ref().map(|p| p.started_at.clone()).unwrap_or_else(|| started_at.clone()),
+        ended_at: None,
+        invocations: previous.as_ref().map_or(0, |p| p.invocations) + 1,
+        last_invocation: invocation.clone(),
+        totals: Totals { episodes: loaded.finished.len() as u64, ..prev_totals.clone() },
+    };
+    store::write_run_info(&dir, &info)?;
+
+    let client = Client::new(options.client.clone()).map_err(|e| EvalError::Client(e.to_string()))?;
+    let counters = Arc::new(Counters::default());
+    let progress = Progress::start(options.progress, todo.len() as u64, counters.clone(), options.progress_interval);
+    let concurrency = options.concurrency.max(1);
+    let budget = options.max_total_tokens;
+    let ctx = Arc::new(Ctx {
+        client,
+        system: ChatMessage::new(Role::System, prompt::SYSTEM_PROMPT),
+        hash,
+        counters: counters.clone(),
+        options,
+    });
+    let writer = Writer::start(&dir)?;
+
+    let mut pending = Scheduler::new(todo);
+    let mut set: JoinSet<(EpisodeKey, EpisodeResult)> = JoinSet::new();
+    let mut tokens_spent: u64 = 0;
+    let mut stopped_by_budget = false;
+    let mut infra_streak: u32 = 0;
+    let outage_streak = OUTAGE_STREAK.min(concurrency as u32).max(3);
+    let mut stopped_by_outage = None;
+    let mut interrupted = false;
+    let mut fatal: Option<LlmError> = None;
+    let mut failure: Option<EvalError> = None;
+    let ctrl_c = tokio::signal::ctrl_c();
+    tokio::pin!(ctrl_c);
+    loop {
+        while set.len() < concurrency && !stopped_by_budget && stopped_by_outage.is_none() {
+            let Some(key) = pending.next_key() else { break };
+            let ctx = ctx.clone();
+            set.spawn(async move { (key, play(&ctx, key).await) });
+        }
+        let joined = tokio::select! {
+            j = set.join_next() => j,
+            _ = &mut ctrl_c => { interrupted = true; set.abort_all(); break; }
+        };
+        let Some(joined) = joined else { break };
+        let (key, result) = match joined {
+            Ok(r) => r,
+            Err(e) => {
+                set.abort_all();
+                failure = Some(EvalError::Task(e.to_string()));
+                break;
+            }
+        };
+        match result {
+            Ok((scalars, line)) => {
+                infra_streak = 0;
+                pending.observe(key, scalars.turns_taken);
+                if writer.tx.send(WriteMsg::Rollout(line)).is_err() {
+                    // The writer failed (disk full, ...): stop spending
+                    // tokens on episodes that cannot be stored. Its error is
+                    // reported below.
+                    set.abort_all();
+                    break;
+                }
+                counters.done.fetch_add(1, Relaxed);
+                if scalars.outcome == Outcome::Success {
+                    counters.success.fetch_add(1, Relaxed);
+                }
+                tokens_spent += scalars.tokens;
+                invocation.episodes += 1;
+                invocation.tokens += scalars.tokens;
+                loaded.finished.insert(key, scalars);
+                if budget.is_some_and(|b| tokens_spent >= b) && !stopped_by_budget {
+                    stopped_by_budget = true;
+                }
+            }
+            Err(EpisodeError::Infra { turn, message }) => {
+                counters.infra_errors.fetch_add(1, Relaxed);
+                infra_streak += 1;
+                if infra_streak >= outage_streak && stopped_by_outage.is_none() {
+                    stopped_by_outage = Some(infra_streak);
+                    if !quiet {
+                        eprintln!(
+                            "{infra_streak} episodes in a row ran out of retries (last: {message}); \
+                             starting no new episodes"
+                        );
+                    }
+                }
+                counters.done.fetch_add(1, Relaxed);
+                invocation.infra_errors += 1;
+                let rec = InfraErrorRecord {
+                    scenario: key.scenario,
+                    tier: key.tier,
+                    seed: key.seed,
+                    rollout: key.rollout,
+                    turn,
+                    error: message,
+                    at: now_rfc3339(),
+                };
+                let _ = writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+            }
+            Err(EpisodeError::Fatal(e)) => {
+                set.abort_all();
+                fatal = Some(e);
+                break;
+            }
+        }
+    }
+    // Let aborted tasks wind down before the writer closes.
+    while set.join_next().await.is_some() {}
+    progress.finish().await;
+    let write_result = writer.finish();
+
+    invocation.retries = counters.retries.load(Relaxed);
+    invocation.turns = counters.turns.load(Relaxed);
+    invocation.wall_s = started.elapsed().as_secs_f64();
+    if !quiet && invocation.wall_s > 0.0 {
+        eprintln!(
+            "{} episodes, {} decision turns in {:.1} s ({:.0} turns/s), {} retries",
+            invocation.episodes,
+            invocation.turns,
+            invocation.wall_s,
+            invocation.turns as f64 / invocation.wall_s,
+            invocation.retries
+        );
+    }
+    invocation.ended_at = Some(now_rfc3339());
+
+    // Summary over every finished episode of the selection, in key order.
+    let mut by_cell: Vec<(ScenarioKind, Tier, Vec<RolloutScalars>, usize)> = Vec::new();
+    let mut index: HashMap<(ScenarioKind, Tier), usize> = HashMap::new();
+    for key in &selection {
+        let i = *index.entry((key.scenario, key.tier)).or_insert_with(|| {
+            by_cell.push((key.scenario, key.tier, Vec::new(), 0));
+            by_cell.len() - 1
+        });
+        match loaded.finished.get(key) {
+            Some(s) => by_cell[i].2.push(*s),
+            None => by_cell[i].3 += 1,
+        }
+    }
+    let summary = summary::summarize(&ctx.options.config.model, &by_cell);
+    let missing = summary.missing;
+    invocation.status = match (&fatal, interrupted, missing) {
+        (Some(LlmError::Refused { .. }), _, _) => "refused",
+        (Some(_), _, _) => "failed",
+        _ if failure.is_some() || write_result.is_err() => "failed",
+        (None, true, _) => "interrupted",
+        (None, false, 0) => "finished",
+        _ => "incomplete",
+    }
+    .into();
+    info.totals = Totals {
+        episodes: loaded.finished.len() as u64,
+        infra_errors: prev_totals.infra_errors + invocation.infra_errors,
+        missing: missing as u64,
+        retries: prev_totals.retries + invocation.retries,
+        tokens: loaded_tokens(&loaded.finished),
+        wall_s: prev_totals.wall_s + invocation.wall_s,
+    };
+    info.ended_at = invocation.ended_at.clone();
+    info.last_invocation = invocation;
+    store::write_run_info(&dir, &info)?;
+    write_result?;
+    if let Some(f) = failure {
+        return Err(f);
+    }
+    if let Some(e) = fatal {
+        let hint = match &e {
+            LlmError::Refused { status: 401 | 403, .. } => match &ctx.options.api_key_var {
+                Some(var) => format!(" (check the API key in ${var})"),
+                None => " (no API key was sent: give --api-key-var or --endpoint)".to_string(),
+            },
+            LlmError::Refused { status: 404, .. } => {
+                format!(" (check --model '{}' and the base URL {})", ctx.options.config.model, ctx.client.url())
+            }
+            _ => String::new(),
+        };
+        let msg = format!("{e}{hint}; the run was stopped, finished episodes are kept in {}", dir.display());
+        return Err(match e {
+            LlmError::Refused { .. } => EvalError::Refused(msg),
+            _ => EvalError::Rejected(msg),
+        });
+    }
+    let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
+    store::write_atomic(&dir.join("summary.json"), &json)?;
+    store::write_atomic(&dir.join("summary.md"), summary::render(&summary).as_bytes())?;
+    Ok(RunOutcome { summary, run_dir: dir, missing, stopped_by_budget, stopped_by_outage, interrupted })
+}
+
+/// Which episode to start next. Cells (scenario, tier) start round-robin;
+/// once a cell has finished episodes, the cell with the longest mean episode
+/// (in turns) so far goes first. Starting long episodes early shortens the
+/// tail of a run, when fewer episodes than `-c` are left in flight (a
+/// longest-processing-time-first heuristic that learns lengths as it goes,
+/// since a model's episode lengths are not known in advance). Within a cell,
+/// keys keep their order. The order never changes an episode's result.
+struct Scheduler {
+    cells: Vec<(std::collections::VecDeque<EpisodeKey>, u64, u64)>,
+    index: HashMap<(ScenarioKind, Tier), usize>,
+    next_unobserved: usize,
+}
+
+impl Scheduler {
+    fn new(keys: Vec<EpisodeKey>) -> Scheduler {
+        let mut s = Scheduler { cells: Vec::new(), index: HashMap::new(), next_unobserved: 0 };
+        for key in keys {
+            let i = *s.index.entry((key.scenario, key.tier)).or_insert_with(|| {
+                s.cells.push((Default::default(), 0, 0));
+                s.cells.len() - 1
+            });
+            s.cells[i].0.push_back(key);
+        }
+        s
+    }
+
+    fn observe(&mut self, key: EpisodeKey, turns: u32) {
+        if let Some(&i) = self.index.get(&(key.scenario, key.tier)) {
+            self.cells[i].1 += turns as u64;
+            self.cells[i].2 += 1;
+        }
+    }
+
+    fn next_key(&mut self) -> Option<EpisodeKey> {
+        let unobserved: Vec<usize> =
+            (0..self.cells.len()).filter(|&i| self.cells[i].2 == 0 && !self.cells[i].0.is_empty()).collect();
+        let i = if unobserved.is_empty() {
+            (0..self.cells.len()).filter(|&i| !self.cells[i].0.is_empty()).max_by(|&a, &b| {
+                let mean = |i: usize| self.cells[i].1 as f64 / self.cells[i].2 as f64;
+                mean(a).total_cmp(&mean(b)).then(b.cmp(&a))
+            })?
+        } else {
+            self.next_unobserved += 1;
+            unobserved[(self.next_unobserved - 1) % unobserved.len()]
+        };
+        self.cells[i].0.pop_front()
+    }
+}
+
+fn loaded_tokens(finished: &HashMap<EpisodeKey, RolloutScalars>) -> u64 {
+    finished.values().map(|s| s.tokens).sum()
+}
+
+/// Play one episode to its end; return its summary scalars and its line.
+async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
+    let opts = &ctx.options;
+    let started = Instant::now();
+    let mut episode = Episode::new(opts.scenario_set.get(key.scenario), key.tier, key.seed);
+    if opts.trajectories {
+        episode.record_trajectory();
+    }
+    let mut history = History::default();
+    let mut turns: Vec<TurnRecord> = Vec::new();
+    let retries = AtomicU32::new(0);
+    let (mut prompt_tokens, mut completion_tokens, mut tokens, mut latency_ms) = (0u64, 0u64, 0u64, 0u64);
+    while !episode.is_done() {
+        let turn = episode.observation().turn;
+        let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
+        let messages = history.messages(&ctx.system, opts.config.history, &scene);
+        let request =
+            ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
+        let on_retry = || {
+            retries.fetch_add(1, Relaxed);
+            ctx.counters.retries.fetch_add(1, Relaxed);
+        };
+        let completion = match ctx.client.chat(&request, on_retry).await {
+            Ok(c) => c,
+            Err(e @ LlmError::Exhausted { .. }) => {
+                return Err(EpisodeError::Infra { turn, message: e.to_string() });
+            }
+            Err(e) => return Err(EpisodeError::Fatal(e)),
+        };
+        let sent_bytes: usize = messages.iter().map(|m| m.content.len()).sum();
+        drop(messages);
+        let parsed = parse_action(completion.content.as_deref().unwrap_or(""));
+        let (turn_tokens, estimated) = match completion.usage.and_then(|u| u.total()) {
+            Some(t) => (t, false),
+            // No usage reported: estimate ~4 bytes per token so budgets and
+            // tokens/episode stay meaningful.
+            None => (((sent_bytes + completion.content.as_ref().map_or(0, String::len)) / 4) as u64, true),
+        };
+        if let Some(u) = completion.usage {
+            prompt_tokens += u.prompt_tokens.unwrap_or(0);
+            completion_tokens += u.completion_tokens.unwrap_or(0);
+        }
+        tokens += turn_tokens;
+        ctx.counters.tokens.fetch_add(turn_tokens, Relaxed);
+        ctx.counters.turns.fetch_add(1, Relaxed);
+        let latency = completion.latency.as_millis() as u64;
+        latency_ms += latency;
+        episode.step(parsed.action);
+        let answer = prompt::history_answer(&completion.answer);
+        turns.push(TurnRecord {
+            turn,
+            scene: scene.content.clone(),
+            reply: completion.content,
+            reasoning: completion.reasoning,
+            finish_reason: completion.finish_reason,
+            action: parsed.action,
+            action_reasoning: parsed.reasoning,
+            parse_errors: parsed.errors,
+            usage: completion.usage,
+            tokens: turn_tokens,
+            tokens_estimated: estimated,
+            latency_ms: latency,
+            attempts: completion.attempts,
+            after_resolution: false,
+        });
+        history.push(scene, answer);
+    }
+    let graded = episode.finish();
+    for (t, d) in turns.iter_mut().zip(&graded.decisions) {
+        t.after_resolution = d.after_resolution;
+    }
+    let record = RolloutRecord {
+        model: opts.config.model.clone(),
+        config_hash: ctx.hash.clone(),
+        scenario: key.scenario,
+        tier: key.tier,
+        seed: key.seed,
+        rollout: key.rollout,
+        disposition: graded.disposition,
+        outcome: graded.outcome,
+        reward: graded.grades.reward,
+        decision_correctness: graded.grades.decision_correctness,
+        diagnostics: graded.grades.diagnostics,
+        turns_taken: turns.len() as u32,
+        parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty()).count() as u32,
+        tokens,
+        prompt_tokens,
+        completion_tokens,
+        latency_ms,
+        retries: retries.load(Relaxed),
+        wall_ms: started.elapsed().as_millis() as u64,
+        finished_at: now_rfc3339(),
+        turns,
+        trajectory: graded.trajectory,
+    };
+    let line = serde_json::to_string(&record).expect("a rollout record serialises");
+    Ok((RolloutScalars::from(&record), line))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(scenario: ScenarioKind, seed: u64) -> EpisodeKey {
+        EpisodeKey { scenario, tier: Tier::T1, seed, rollout: 0 }
+    }
+
+    #[test]
+    fn scheduler_interleaves_then_prefers_long_cells() {
+        use ScenarioKind::*;
+        let keys: Vec<EpisodeKey> =
+            [YieldStandoff, ContestedMerge].iter().flat_map(|&s| (0..4).map(move |i| key(s, i))).collect();
+        let mut s = Scheduler::new(keys);
+        let a = s.next_key().unwrap();
+        let b = s.next_key().unwrap();
+        assert_eq!((a.scenario, a.seed, b.scenario, b.seed), (YieldStandoff, 0, ContestedMerge, 0));
+        s.observe(a, 10);
+        // YieldStandoff is observed, ContestedMerge not yet: explore it.
+        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 1));
+        s.observe(b, 30);
+        // Both observed: the longer cell first, until it runs dry.
+        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 2));
+        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 3));
+        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 1));
+        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 2));
+        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 3));
+        assert_eq!(s.next_key(), None);
+    }
+
+    #[test]
+    fn rfc3339_formats_known_instants() {
+        let at = |s: u64| rfc3339(SystemTime::UNIX_EPOCH + Duration::from_secs(s));
+        assert_eq!(at(0), "1970-01-01T00:00:00Z");
+        assert_eq!(at(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(at(1_700_000_000), "2023-11-14T22:13:20Z");
+    }
+}

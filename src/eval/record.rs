@@ -1,0 +1,162 @@
+//! What `rollouts.jsonl` holds: one [`RolloutRecord`] per finished episode,
+//! one JSON object per line.
+
+use crate::action::{Action, ActionParseError};
+use crate::episode::{Outcome, TrajectoryPoint};
+use crate::grading::Diagnostics;
+use crate::llm::Usage;
+use crate::scenario::{Disposition, ScenarioKind, Tier};
+use serde::{Deserialize, Serialize};
+
+/// What identifies a rollout. The episode is fully determined by
+/// (scenario, tier, seed); rollouts of the same seed differ only through
+/// the model's sampling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct EpisodeKey {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seed: u64,
+    pub rollout: u32,
+}
+
+impl std::fmt::Display for EpisodeKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} tier {} seed {} rollout {}", self.scenario, self.tier, self.seed, self.rollout)
+    }
+}
+
+/// One decision turn of the transcript.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TurnRecord {
+    /// 1-based decision index.
+    pub turn: u32,
+    /// The user message: the rendered scene text.
+    pub scene: String,
+    /// The raw reply content as received (`null` when the provider sent
+    /// none). Includes any `<think>` block.
+    pub reply: Option<String>,
+    /// Provider reasoning (`reasoning_content` / `reasoning`) and `<think>`
+    /// contents. Stored only: never scored, never sent back.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reasoning: Option<String>,
+    pub finish_reason: Option<String>,
+    /// The action executed (the conservative stop when `parse_errors` is
+    /// not empty).
+    pub action: Action,
+    /// The `reasoning` field of the model's JSON answer, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub action_reasoning: Option<String>,
+    pub parse_errors: Vec<ActionParseError>,
+    /// Usage as reported by the endpoint (`null` when it sent none).
+    pub usage: Option<Usage>,
+    /// Tokens counted for this turn: the reported total, or an estimate of
+    /// (request + reply bytes) / 4 when the endpoint reports no usage.
+    pub tokens: u64,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub tokens_estimated: bool,
+    /// Wall time of the successful request (ms).
+    pub latency_ms: u64,
+    /// Requests made for this turn (1 = no retry).
+    pub attempts: u32,
+    /// Whether the go / give-way question was already settled (privileged,
+    /// from the simulator; used by decision correctness).
+    pub after_resolution: bool,
+}
+
+/// One finished episode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RolloutRecord {
+    pub model: String,
+    pub config_hash: String,
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seed: u64,
+    pub rollout: u32,
+    /// Privileged: the hidden disposition of this episode.
+    pub disposition: Disposition,
+    pub outcome: Outcome,
+    pub reward: f64,
+    pub decision_correctness: f64,
+    pub diagnostics: Diagnostics,
+    /// Decisions taken.
+    pub turns_taken: u32,
+    /// Decisions whose reply could not be read (executed as the
+    /// conservative stop).
+    pub parse_error_turns: u32,
+    pub tokens: u64,
+    pub prompt_tokens: u64,
+    pub completion_tokens: u64,
+    /// Sum of the successful requests' latencies (ms).
+    pub latency_ms: u64,
+    /// Failed requests retried during this episode.
+    pub retries: u32,
+    /// Wall time from the episode's start to its end (ms), backoff included.
+    pub wall_ms: u64,
+    pub finished_at: String,
+    pub turns: Vec<TurnRecord>,
+    /// Plan-view positions at every decision (for trajectory plots).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<Vec<TrajectoryPoint>>,
+}
+
+impl RolloutRecord {
+    pub fn key(&self) -> EpisodeKey {
+        EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
+    }
+}
+
+/// The per-episode numbers a summary needs, read from a line without
+/// keeping its transcript in memory (serde skips the unknown fields).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RolloutScalars {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seed: u64,
+    pub rollout: u32,
+    pub outcome: Outcome,
+    pub reward: f64,
+    pub decision_correctness: f64,
+    pub turns_taken: u32,
+    pub parse_error_turns: u32,
+    pub tokens: u64,
+    #[serde(default)]
+    pub retries: u32,
+}
+
+impl RolloutScalars {
+    pub fn key(&self) -> EpisodeKey {
+        EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
+    }
+}
+
+impl From<&RolloutRecord> for RolloutScalars {
+    fn from(r: &RolloutRecord) -> Self {
+        RolloutScalars {
+            scenario: r.scenario,
+            tier: r.tier,
+            seed: r.seed,
+            rollout: r.rollout,
+            outcome: r.outcome,
+            reward: r.reward,
+            decision_correctness: r.decision_correctness,
+            turns_taken: r.turns_taken,
+            parse_error_turns: r.parse_error_turns,
+            tokens: r.tokens,
+            retries: r.retries,
+        }
+    }
+}
+
+/// A rollout whose retries ran out: appended to `errors.jsonl`, never to
+/// `rollouts.jsonl`, and re-run by the next invocation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InfraErrorRecord {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seed: u64,
+    pub rollout: u32,
+    /// The turn whose request failed.
+    pub turn: u32,
+    pub error: String,
+    pub at: String,
+}

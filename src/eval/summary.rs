@@ -1,0 +1,202 @@
+//! The run's leaderboard: per scenario and tier, over the finished episodes
+//! of the selection. Infrastructure errors are excluded from every score and
+//! shown as their own column.
+
+use super::record::RolloutScalars;
+use crate::episode::Outcome;
+use crate::scenario::{ScenarioKind, Tier};
+use crate::stats::{Interval, bootstrap_mean_ci, mean};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write;
+
+/// Percentile bootstrap resamples for the success interval (SPEC section 8).
+pub const RESAMPLES: usize = 10_000;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellSummary {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    /// Finished episodes scored.
+    pub episodes: usize,
+    /// Episodes of the selection not finished (infrastructure errors, or not
+    /// started: token budget, interruption). Excluded from every score.
+    pub missing: usize,
+    /// Success rate with a 95% percentile bootstrap interval.
+    pub success: Interval,
+    pub collision_rate: f64,
+    pub timeout_rate: f64,
+    pub mean_reward: f64,
+    pub decision_correctness: f64,
+    /// Fraction of decision turns whose reply could not be read.
+    pub parse_error_rate: f64,
+    pub tokens_per_episode: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    pub model: String,
+    pub cells: Vec<CellSummary>,
+    /// Mean of the cells' success rates (cells with episodes only).
+    pub mean_success: f64,
+    pub episodes: usize,
+    pub missing: usize,
+}
+
+/// Bootstrap seed of a cell: fixed, so a summary is a pure function of the
+/// episodes (a resumed run's summary equals an uninterrupted one's).
+fn cell_seed(scenario: ScenarioKind, tier: Tier) -> u64 {
+    u64::from_str_radix(&super::config::fnv_hex(&format!("{scenario}/{tier}")), 16).unwrap_or(0)
+}
+
+/// `cells`: for each (scenario, tier) of the selection, the finished
+/// episodes' scalars in key order and the number of missing episodes.
+pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<RolloutScalars>, usize)]) -> Summary {
+    let mut out = Vec::with_capacity(cells.len());
+    for (scenario, tier, eps, missing) in cells {
+        let n = eps.len();
+        let rate = |o: Outcome| {
+            if n == 0 { f64::NAN } else { eps.iter().filter(|e| e.outcome == o).count() as f64 / n as f64 }
+        };
+        let success: Vec<f64> = eps.iter().map(|e| f64::from(u8::from(e.outcome == Outcome::Success))).collect();
+        let turns: u64 = eps.iter().map(|e| e.turns_taken as u64).sum();
+        let bad: u64 = eps.iter().map(|e| e.parse_error_turns as u64).sum();
+        out.push(CellSummary {
+            scenario: *scenario,
+            tier: *tier,
+            episodes: n,
+            missing: *missing,
+            success: bootstrap_mean_ci(&success, RESAMPLES, cell_seed(*scenario, *tier)),
+            collision_rate: rate(Outcome::Collision),
+            timeout_rate: rate(Outcome::Timeout),
+            mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
+            decision_correctness: mean(&eps.iter().map(|e| e.decision_correctness).collect::<Vec<_>>()),
+            parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
+            tokens_per_episode: mean(&eps.iter().map(|e| e.tokens as f64).collect::<Vec<_>>()),
+        });
+    }
+    let scored: Vec<f64> = out.iter().filter(|c| c.episodes > 0).map(|c| c.success.estimate).collect();
+    Summary {
+        model: model.to_string(),
+        mean_success: mean(&scored),
+        episodes: out.iter().map(|c| c.episodes).sum(),
+        missing: out.iter().map(|c| c.missing).sum(),
+        cells: out,
+    }
+}
+
+fn f2(x: f64) -> String {
+    if x.is_finite() { format!("{x:.2}") } else { "-".to_string() }
+}
+
+/// The leaderboard as a Markdown table.
+pub fn render(summary: &Summary) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "model: {}", summary.model);
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "| scenario | tier | n | success [95% CI] | collision | timeout | reward | correctness | parse errors | tokens/ep | infra errors |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for c in &summary.cells {
+        let ci = if c.success.lo.is_finite() {
+            format!(" [{}, {}]", f2(c.success.lo), f2(c.success.hi))
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {}{} | {} | {} | {} | {} | {} | {} | {} |",
+            c.scenario,
+            c.tier,
+            c.episodes,
+            f2(c.success.estimate),
+            ci,
+            f2(c.collision_rate),
+            f2(c.timeout_rate),
+            f2(c.mean_reward),
+            f2(c.decision_correctness),
+            f2(c.parse_error_rate),
+            if c.tokens_per_episode.is_finite() { format!("{:.0}", c.tokens_per_episode) } else { "-".into() },
+            c.missing
+        );
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "mean success over cells: {}; {} episodes scored, {} missing",
+        f2(summary.mean_success),
+        summary.episodes,
+        summary.missing
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ep(seed: u64, outcome: Outcome, parse_error_turns: u32) -> RolloutScalars {
+        RolloutScalars {
+            scenario: ScenarioKind::PedestrianFeint,
+            tier: Tier::T2,
+            seed,
+            rollout: 0,
+            outcome,
+            reward: match outcome {
+                Outcome::Success => 0.9,
+                Outcome::Collision => -1.0,
+                Outcome::Timeout => 0.0,
+            },
+            decision_correctness: 0.5,
+            turns_taken: 10,
+            parse_error_turns,
+            tokens: 1000,
+            retries: 0,
+        }
+    }
+
+    #[test]
+    fn cell_figures() {
+        let eps = vec![
+            ep(0, Outcome::Success, 0),
+            ep(1, Outcome::Collision, 5),
+            ep(2, Outcome::Timeout, 0),
+            ep(3, Outcome::Success, 0),
+        ];
+        let s = summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, eps, 2)]);
+        let c = &s.cells[0];
+        assert_eq!((c.episodes, c.missing), (4, 2));
+        assert_eq!(c.success.estimate, 0.5);
+        assert!(c.success.lo < 0.5 && c.success.hi > 0.5);
+        assert_eq!((c.collision_rate, c.timeout_rate), (0.25, 0.25));
+        assert_eq!(c.parse_error_rate, 5.0 / 40.0);
+        assert_eq!(c.tokens_per_episode, 1000.0);
+        assert!((c.mean_reward - 0.2).abs() < 1e-12);
+        let table = render(&s);
+        assert!(table.contains("| pedestrian_feint | 2 | 4 | 0.50 ["), "{table}");
+        // Deterministic: the same episodes give the same summary.
+        let again = summarize(
+            "m",
+            &[(
+                ScenarioKind::PedestrianFeint,
+                Tier::T2,
+                vec![
+                    ep(0, Outcome::Success, 0),
+                    ep(1, Outcome::Collision, 5),
+                    ep(2, Outcome::Timeout, 0),
+                    ep(3, Outcome::Success, 0),
+                ],
+                2,
+            )],
+        );
+        assert_eq!(serde_json::to_string(&s).unwrap(), serde_json::to_string(&again).unwrap());
+    }
+
+    #[test]
+    fn empty_cells_render_dashes() {
+        let s = summarize("m", &[(ScenarioKind::YieldStandoff, Tier::T1, vec![], 3)]);
+        assert!(render(&s).contains("| yield_standoff | 1 | 0 | - | - |"));
+        assert!(s.mean_success.is_nan());
+    }
+}

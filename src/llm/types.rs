@@ -1,0 +1,257 @@
+//! Wire types for OpenAI-compatible chat completions.
+//!
+//! Requests are small and strict. Responses are read as tolerantly as
+//! possible: providers disagree on almost every field, so every field is
+//! optional, a field with an unexpected type reads as absent instead of
+//! failing the whole response, and unknown fields are kept in `extra` (so a
+//! stored response loses nothing).
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Deserializer, Serialize};
+use serde_json::{Map, Value};
+
+/// One message of the conversation we send.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChatMessage {
+    pub role: Role,
+    pub content: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    System,
+    User,
+    Assistant,
+}
+
+impl ChatMessage {
+    pub fn new(role: Role, content: impl Into<String>) -> ChatMessage {
+        ChatMessage { role, content: content.into() }
+    }
+}
+
+/// The request body: model, messages, and the run's sampling parameters
+/// (temperature, max_tokens, response_format and any `--sampling-args`),
+/// flattened into the top level as the API expects.
+#[derive(Debug, Serialize)]
+pub struct ChatRequest<'a> {
+    pub model: &'a str,
+    pub messages: &'a [&'a ChatMessage],
+    #[serde(flatten)]
+    pub params: &'a Map<String, Value>,
+}
+
+/// Deserialize into `Option<T>`, turning a value of the wrong shape into
+/// `None` instead of an error: one odd field must not cost a whole reply.
+fn lenient<'de, D, T>(d: D) -> Result<Option<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: DeserializeOwned,
+{
+    let v = Value::deserialize(d)?;
+    Ok(if v.is_null() { None } else { serde_json::from_value(v).ok() })
+}
+
+/// Like [`lenient`] for token counts, also accepting integral floats
+/// (`12.0`) and numeric strings, which some proxies emit.
+fn lenient_count<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u64>, D::Error> {
+    let v = Value::deserialize(d)?;
+    Ok(match v {
+        Value::Number(n) => {
+            n.as_u64().or_else(|| n.as_f64().filter(|x| *x >= 0.0 && x.fract() == 0.0).map(|x| x as u64))
+        }
+        Value::String(s) => s.trim().parse().ok(),
+        _ => None,
+    })
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ChatResponse {
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub id: Option<String>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub object: Option<String>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub created: Option<i64>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub choices: Option<Vec<Choice>>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub usage: Option<Usage>,
+    /// Some providers answer HTTP 200 with an error object instead of
+    /// choices (OpenRouter does when an upstream fails).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<Value>,
+    #[serde(flatten)]
+    pub extra: Map<String, Value>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Choice {
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub index: Option<u64>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub message: Option<ResponseMessage>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub finish_reason: Option<String>,
+    #[serde(flatten)]
+    pub extra: Map<String, Value>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ResponseMessage {
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub role: Option<String>,
+    /// A string, `null`, or (some providers) an array of content parts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub content: Option<Value>,
+    /// DeepSeek, vLLM and others.
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub reasoning_content: Option<String>,
+    /// OpenRouter and others.
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub reasoning: Option<String>,
+    #[serde(flatten)]
+    pub extra: Map<String, Value>,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Usage {
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub prompt_tokens: Option<u64>,
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub completion_tokens: Option<u64>,
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub total_tokens: Option<u64>,
+}
+
+impl Usage {
+    /// Total tokens: the reported total, else the sum of the parts.
+    pub fn total(&self) -> Option<u64> {
+        self.total_tokens.or(match (self.prompt_tokens, self.completion_tokens) {
+            (None, None) => None,
+            (p, c) => Some(p.unwrap_or(0) + c.unwrap_or(0)),
+        })
+    }
+}
+
+impl ResponseMessage {
+    /// The reply text: a string content as is, an array of parts joined
+    /// (text parts only), anything else as absent.
+    pub fn text(&self) -> Option<String> {
+        match self.content.as_ref()? {
+            Value::String(s) => Some(s.clone()),
+            Value::Array(parts) => {
+                let text: String =
+                    parts.iter().filter_map(|p| p.as_str().or_else(|| p.get("text").and_then(Value::as_str))).collect();
+                Some(text)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// `<think>...</think>` handling: returns (the text with every think block
+/// removed, the think blocks' contents joined). A reply whose first tag is a
+/// closing `</think>` started inside the block (some servers strip the
+/// opening tag); a reply that ends inside an open block has no answer.
+pub fn split_think(text: &str) -> (String, Option<String>) {
+    const OPEN: &str = "<think>";
+    const CLOSE: &str = "</think>";
+    let mut answer = String::new();
+    let mut thoughts: Vec<&str> = Vec::new();
+    let mut rest = text;
+    // A leading orphan close tag: everything before it is thought.
+    if let Some(close) = rest.find(CLOSE)
+        && rest.find(OPEN).is_none_or(|open| close < open)
+    {
+        thoughts.push(&rest[..close]);
+        rest = &rest[close + CLOSE.len()..];
+    }
+    while let Some(open) = rest.find(OPEN) {
+        answer.push_str(&rest[..open]);
+        let after = &rest[open + OPEN.len()..];
+        match after.find(CLOSE) {
+            Some(close) => {
+                thoughts.push(&after[..close]);
+                rest = &after[close + CLOSE.len()..];
+            }
+            None => {
+                thoughts.push(after);
+                rest = "";
+            }
+        }
+    }
+    answer.push_str(rest);
+    let thoughts: Vec<&str> = thoughts.into_iter().map(str::trim).filter(|t| !t.is_empty()).collect();
+    (answer, if thoughts.is_empty() { None } else { Some(thoughts.join("\n\n")) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> ChatResponse {
+        serde_json::from_str(s).unwrap()
+    }
+
+    #[test]
+    fn null_content_and_missing_usage_are_tolerated() {
+        let r = parse(r#"{"choices":[{"message":{"role":"assistant","content":null},"finish_reason":"stop"}]}"#);
+        let c = &r.choices.as_ref().unwrap()[0];
+        assert_eq!(c.message.as_ref().unwrap().text(), None);
+        assert!(r.usage.is_none());
+    }
+
+    #[test]
+    fn reasoning_fields_are_read() {
+        let r = parse(
+            r#"{"choices":[{"message":{"content":"{}","reasoning_content":"hmm","reasoning":"also"}}],
+                "usage":{"prompt_tokens":10,"completion_tokens":"5"}}"#,
+        );
+        let m = r.choices.as_ref().unwrap()[0].message.clone().unwrap();
+        assert_eq!(m.reasoning_content.as_deref(), Some("hmm"));
+        assert_eq!(m.reasoning.as_deref(), Some("also"));
+        assert_eq!(r.usage.unwrap().total(), Some(15));
+    }
+
+    #[test]
+    fn extra_fields_and_odd_values_are_kept_or_ignored() {
+        let r = parse(
+            r#"{"id":42,"provider":"x","created":"yesterday","choices":[{"index":0,"finish_reason":"",
+                "message":{"content":[{"type":"text","text":"a"},{"type":"text","text":"b"}],"refusal":null},
+                "logprobs":{"x":1}}],"usage":{"total_tokens":7.0,"cost":0.1}}"#,
+        );
+        assert_eq!(r.id, None, "a numeric id reads as absent, not as an error");
+        assert_eq!(r.extra.get("provider"), Some(&Value::from("x")));
+        let c = &r.choices.as_ref().unwrap()[0];
+        assert_eq!(c.finish_reason.as_deref(), Some(""));
+        assert!(c.extra.contains_key("logprobs"));
+        assert_eq!(c.message.as_ref().unwrap().text().as_deref(), Some("ab"));
+        assert_eq!(r.usage.unwrap().total(), Some(7));
+    }
+
+    #[test]
+    fn error_bodies_and_missing_choices_parse() {
+        let r = parse(r#"{"error":{"message":"upstream failed","code":502}}"#);
+        assert!(r.error.is_some());
+        assert!(r.choices.is_none());
+        let r = parse(r#"{"choices":"nope"}"#);
+        assert!(r.choices.is_none());
+    }
+
+    #[test]
+    fn think_blocks_are_split_off() {
+        let (a, t) = split_think("<think>the car brakes</think>\n{\"maneuver\":\"proceed\"}");
+        assert_eq!(a.trim(), "{\"maneuver\":\"proceed\"}");
+        assert_eq!(t.as_deref(), Some("the car brakes"));
+        let (a, t) = split_think("opening tag stripped</think>{}");
+        assert_eq!((a.as_str(), t.as_deref()), ("{}", Some("opening tag stripped")));
+        let (a, t) = split_think("{} <think>cut off");
+        assert_eq!((a.as_str(), t.as_deref()), ("{} ", Some("cut off")));
+        let (a, t) = split_think("plain");
+        assert_eq!((a.as_str(), t), ("plain", None));
+    }
+}

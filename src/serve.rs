@@ -1,0 +1,404 @@
+//! `negotiator serve`: an OpenAI-compatible chat endpoint whose "model" is a
+//! scripted policy reading the scene text. For offline demos, tests and
+//! fault injection.
+//!
+//! The model reads only the last user message, parses it back into an
+//! observation with [`parse_scene`] and answers with the policy's action as
+//! `{"reasoning": ..., "acceleration": ..., "steering": 0.0, "maneuver": ...}`.
+//! A message that is not a scene gets the conservative stop, not an HTTP
+//! error. `random` draws from a seed hashed from the scene text and the
+//! server seed, so the same scene gets the same answer.
+//!
+//! Token counts in `usage` are estimates: request body bytes / 4 for the
+//! prompt, reply bytes / 4 for the completion.
+//!
+//! Fault injection is decided per request, in arrival order: request i
+//! (counting every chat request) draws from a stream seeded by (seed, i), so
+//! a given request count meets the same faults on every run. The rate limit
+//! is a token bucket (capacity one second's worth) and is time-based by
+//! nature: a request finding it empty gets 429 with `Retry-After` in whole
+//! seconds. Then, independently: `fail_rate` answers a 5xx (500 or 503 with
+//! an error body) or an HTTP 200 carrying an error object and no choices;
+//! `drop_rate` sends the headers and part of the body, then breaks the
+//! connection; `garbage_rate` answers a well-formed completion whose content
+//! is not a valid action (prose, cut-off JSON with `finish_reason: length`,
+//! null content, an unknown maneuver, an out-of-range number, an unclosed
+//! `<think>`): driving on a parse error, not an infrastructure failure.
+
+use crate::action::Action;
+use crate::observation::parse_scene;
+use crate::policy::PolicyKind;
+use axum::Router;
+use axum::body::{Body, Bytes};
+use axum::extract::State;
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use serde::Deserialize;
+use serde_json::{Value, json};
+use std::sync::Arc;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant, SystemTime};
+
+/// Server settings.
+#[derive(Debug, Clone)]
+pub struct ServeConfig {
+    pub policy: PolicyKind,
+    pub seed: u64,
+    pub latency: Duration,
+    pub fail_rate: f64,
+    pub rate_limit: Option<f64>,
+    pub drop_rate: f64,
+    pub garbage_rate: f64,
+}
+
+/// Counts of what was served (for the shutdown line and tests).
+#[derive(Debug, Default)]
+pub struct ServeStats {
+    pub requests: AtomicU64,
+    pub ok: AtomicU64,
+    pub failed: AtomicU64,
+    pub rate_limited: AtomicU64,
+    pub dropped: AtomicU64,
+    pub garbage: AtomicU64,
+    pub unparseable_scenes: AtomicU64,
+}
+
+struct Bucket {
+    tokens: f64,
+    last: Instant,
+}
+
+pub struct ServeState {
+    config: ServeConfig,
+    pub stats: ServeStats,
+    bucket: Option<Mutex<Bucket>>,
+    created: u64,
+}
+
+impl ServeState {
+    pub fn new(config: ServeConfig) -> ServeState {
+        let bucket = config.rate_limit.map(|rps| Mutex::new(Bucket { tokens: rps.max(1.0), last: Instant::now() }));
+        let created = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+        ServeState { config, stats: ServeStats::default(), bucket, created }
+    }
+
+    /// Take a token, or say how long until one is available.
+    fn rate_limit(&self) -> Result<(), Duration> {
+        let (Some(bucket), Some(rps)) = (&self.bucket, self.config.rate_limit) else { return Ok(()) };
+        let mut b = bucket.lock().unwrap_or_else(|e| e.into_inner());
+        let now = Instant::now();
+        let capacity = rps.max(1.0);
+        b.tokens = (b.tokens + now.duration_since(b.last).as_secs_f64() * rps).min(capacity);
+        b.last = now;
+        if b.tokens >= 1.0 {
+            b.tokens -= 1.0;
+            Ok(())
+        } else {
+            Err(Duration::from_secs_f64((1.0 - b.tokens) / rps))
+        }
+    }
+}
+
+/// The routes: `POST /v1/chat/completions`, `GET /v1/models`.
+pub fn router(state: Arc<ServeState>) -> Router {
+    Router::new().route("/v1/chat/completions", post(chat)).route("/v1/models", get(models)).with_state(state)
+}
+
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Independent uniform draws for request `i`: draw `k` of stream (seed, i).
+fn draw(seed: u64, i: u64, k: u64) -> f64 {
+    (mix(mix(seed ^ mix(i)) ^ k) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+fn fnv(s: &str) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in s.as_bytes() {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+fn error_response(status: StatusCode, kind: &str, message: &str) -> Response {
+    (status, axum::Json(json!({"error": {"message": message, "type": kind, "code": status.as_u16()}}))).into_response()
+}
+
+#[derive(Deserialize)]
+struct ChatIn {
+    #[serde(default)]
+    model: Option<String>,
+    #[serde(default)]
+    messages: Vec<MessageIn>,
+}
+
+#[derive(Deserialize)]
+struct MessageIn {
+    #[serde(default)]
+    role: String,
+    #[serde(default)]
+    content: Value,
+}
+
+fn content_text(v: &Value) -> Option<String> {
+    match v {
+        Value::String(s) => Some(s.clone()),
+        Value::Array(parts) => Some(parts.iter().filter_map(|p| p.get("text").and_then(Value::as_str)).collect()),
+        _ => None,
+    }
+}
+
+/// The scripted model's answer to a scene text.
+pub fn answer(policy: PolicyKind, seed: u64, scene_text: &str) -> (Action, String) {
+    match parse_scene(scene_text) {
+        Ok(obs) => {
+            let mut p = policy.build();
+            p.reset(mix(seed ^ fnv(scene_text)));
+            let action = p.act(&obs);
+            (action, format!("{policy} policy at turn {} of {}", obs.turn, obs.turn_budget))
+        }
+        Err(e) => (Action::CONSERVATIVE, format!("no readable scene ({e}); stopping")),
+    }
+}
+
+/// The JSON reply content for an action. Numbers are printed in full
+/// (shortest round-trip form), so the client executes exactly this action.
+pub fn action_content(action: &Action, reasoning: &str) -> String {
+    json!({
+        "reasoning": reasoning,
+        "acceleration": action.acceleration,
+        "steering": action.steering,
+        "maneuver": action.maneuver.name(),
+    })
+    .to_string()
+}
+
+/// Malformed replies for `--garbage-rate`: each is a parse error for
+/// [`crate::action::parse_action`]. Returns (content, finish_reason).
+pub fn garbage(k: u64) -> (Option<String>, &'static str) {
+    match k % 7 {
+        0 => (Some("I would slow down a little and watch the other car carefully.".into()), "stop"),
+        1 => (Some("{\"reasoning\": \"the other car is braking, so I will\", \"maneuver\": \"proc".into()), "length"),
+        2 => (None, "stop"),
+        3 => (Some("{\"reasoning\": \"go\", \"maneuver\": \"teleport\", \"acceleration\": 0.5}".into()), "stop"),
+        4 => (Some("```json\n{\"maneuver\": \"proceed\", \"acceleration\": 7.5}\n```".into()), "stop"),
+        5 => (Some("<think>The pedestrian is near the kerb and".into()), "length"),
+        _ => (Some("\u{fffd}\u{0}\u{7f}{{{[[[ \"maneuver\" :: proceed ]".into()), "stop"),
+    }
+}
+
+fn completion(
+    state: &ServeState,
+    id: u64,
+    model: &str,
+    content: Option<String>,
+    finish: &str,
+    prompt_bytes: usize,
+) -> Value {
+    let completion_tokens = content.as_ref().map_or(0, |c| c.len().div_ceil(4)) as u64;
+    let prompt_tokens = prompt_bytes.div_ceil(4) as u64;
+    json!({
+        "id": format!("chatcmpl-{id:016x}"),
+        "object": "chat.completion",
+        "created": state.created,
+        "model": model,
+        "system_fingerprint": concat!("negotiator-", env!("CARGO_PKG_VERSION")),
+        "choices": [{
+            "index": 0,
+            "message": {"role": "assistant", "content": content},
+            "finish_reason": finish,
+        }],
+        "usage": {
+            "prompt_tokens": prompt_tokens,
+            "completion_tokens": completion_tokens,
+            "total_tokens": prompt_tokens + completion_tokens,
+        },
+    })
+}
+
+async fn chat(State(state): State<Arc<ServeState>>, body: Bytes) -> Response {
+    let cfg = &state.config;
+    let i = state.stats.requests.fetch_add(1, Ordering::Relaxed);
+    if let Err(wait) = state.rate_limit() {
+        state.stats.rate_limited.fetch_add(1, Ordering::Relaxed);
+        let mut r =
+            error_response(StatusCode::TOO_MANY_REQUESTS, "rate_limit_exceeded", "Rate limit reached; retry later");
+        let secs = wait.as_secs_f64().ceil().max(1.0) as u64;
+        r.headers_mut().insert(header::RETRY_AFTER, HeaderValue::from(secs));
+        return r;
+    }
+    if !cfg.latency.is_zero() {
+        tokio::time::sleep(cfg.latency).await;
+    }
+    let request: ChatIn = match serde_json::from_slice(&body) {
+        Ok(r) => r,
+        Err(e) => {
+            return error_response(
+                StatusCode::BAD_REQUEST,
+                "invalid_request_error",
+                &format!("invalid JSON body: {e}"),
+            );
+        }
+    };
+    let model = request.model.clone().unwrap_or_else(|| cfg.policy.name().to_string());
+    if draw(cfg.seed, i, 1) < cfg.fail_rate {
+        state.stats.failed.fetch_add(1, Ordering::Relaxed);
+        return match (draw(cfg.seed, i, 2) * 3.0) as u32 {
+            0 => error_response(StatusCode::INTERNAL_SERVER_ERROR, "server_error", "injected failure"),
+            1 => error_response(StatusCode::SERVICE_UNAVAILABLE, "overloaded", "injected overload"),
+            _ => (StatusCode::OK, axum::Json(json!({"error": {"message": "injected upstream error", "code": 502}})))
+                .into_response(),
+        };
+    }
+    let (content, finish) = if draw(cfg.seed, i, 4) < cfg.garbage_rate {
+        state.stats.garbage.fetch_add(1, Ordering::Relaxed);
+        garbage(mix(cfg.seed ^ i))
+    } else {
+        let scene = request.messages.iter().rev().find(|m| m.role == "user").and_then(|m| content_text(&m.content));
+        let (action, reasoning) = answer(cfg.policy, cfg.seed, scene.as_deref().unwrap_or(""));
+        if reasoning.starts_with("no readable scene") {
+            state.stats.unparseable_scenes.fetch_add(1, Ordering::Relaxed);
+        }
+        (Some(action_content(&action, &reasoning)), "stop")
+    };
+    let reply = completion(&state, i, &model, content, finish, body.len()).to_string();
+    if draw(cfg.seed, i, 3) < cfg.drop_rate {
+        state.stats.dropped.fetch_add(1, Ordering::Relaxed);
+        // Headers and half the body, then a broken stream: hyper aborts the
+        // connection, as a proxy dying mid-reply would.
+        let half = reply.as_bytes()[..reply.len() / 2].to_vec();
+        let chunks: Vec<Result<Vec<u8>, std::io::Error>> =
+            vec![Ok(half), Err(std::io::Error::new(std::io::ErrorKind::ConnectionReset, "injected drop"))];
+        let mut r = Response::new(Body::from_stream(futures_util::stream::iter(chunks)));
+        r.headers_mut().insert(header::CONTENT_TYPE, HeaderValue::from_static("application/json"));
+        return r;
+    }
+    state.stats.ok.fetch_add(1, Ordering::Relaxed);
+    ([(header::CONTENT_TYPE, "application/json")], reply).into_response()
+}
+
+async fn models(State(state): State<Arc<ServeState>>) -> Response {
+    axum::Json(json!({
+        "object": "list",
+        "data": [{
+            "id": state.config.policy.name(),
+            "object": "model",
+            "created": state.created,
+            "owned_by": "negotiator",
+        }],
+    }))
+    .into_response()
+}
+
+/// Bind, print `listening on http://HOST:PORT/v1` on stdout, serve until
+/// Ctrl-C (or SIGTERM).
+pub async fn serve(host: &str, port: u16, config: ServeConfig) -> std::io::Result<Arc<ServeState>> {
+    let listener = tokio::net::TcpListener::bind((host, port)).await?;
+    let addr = listener.local_addr()?;
+    let state = Arc::new(ServeState::new(config));
+    {
+        use std::io::Write;
+        let mut out = std::io::stdout().lock();
+        let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
+        writeln!(out, "listening on http://{host}:{}/v1", addr.port())?;
+        out.flush()?;
+    }
+    axum::serve(listener, router(state.clone())).with_graceful_shutdown(shutdown()).await?;
+    Ok(state)
+}
+
+async fn shutdown() {
+    #[cfg(unix)]
+    {
+        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(s) => s,
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+                return;
+            }
+        };
+        tokio::select! {
+            _ = tokio::signal::ctrl_c() => {}
+            _ = term.recv() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn garbage_is_unreadable(k: u64) -> Vec<crate::action::ActionParseError> {
+        crate::action::parse_action(garbage(k).0.as_deref().unwrap_or("")).errors
+    }
+
+    #[test]
+    fn every_garbage_kind_is_a_parse_error() {
+        for k in 0..7 {
+            assert!(!garbage_is_unreadable(k).is_empty(), "garbage kind {k}: {:?}", garbage(k));
+        }
+    }
+
+    #[test]
+    fn faults_are_deterministic_per_request_index() {
+        let a: Vec<f64> = (0..100).map(|i| draw(7, i, 1)).collect();
+        let b: Vec<f64> = (0..100).map(|i| draw(7, i, 1)).collect();
+        assert_eq!(a, b);
+        assert_ne!(a, (0..100).map(|i| draw(8, i, 1)).collect::<Vec<_>>());
+        let hits = (0..10_000).filter(|i| draw(1, *i, 1) < 0.2).count();
+        assert!((1800..2200).contains(&hits), "{hits}");
+    }
+
+    #[test]
+    fn unreadable_scene_gets_the_conservative_stop() {
+        let (a, why) = answer(PolicyKind::Expert, 0, "hello");
+        assert_eq!(a, Action::CONSERVATIVE);
+        assert!(why.starts_with("no readable scene"));
+    }
+
+    #[test]
+    fn the_answer_round_trips_through_the_action_parser() {
+        use crate::episode::Episode;
+        use crate::scenario::{ScenarioConfig, ScenarioKind, Tier};
+        for kind in ScenarioKind::ALL {
+            let ep = Episode::new(&ScenarioConfig::builtin(kind), Tier::T1, 3);
+            let text = crate::observation::render_scene(ep.observation());
+            for policy in PolicyKind::ALL {
+                let (action, why) = answer(policy, 5, &text);
+                let parsed = crate::action::parse_action(&action_content(&action, &why));
+                assert!(parsed.is_clean(), "{policy}: {:?}", parsed.errors);
+                assert_eq!(parsed.action, action);
+                // Same scene, same answer (random included).
+                assert_eq!(answer(policy, 5, &text).0, action);
+            }
+        }
+    }
+
+    #[test]
+    fn rate_limit_bucket_empties_and_says_when() {
+        let s = ServeState::new(ServeConfig {
+            policy: PolicyKind::Expert,
+            seed: 0,
+            latency: Duration::ZERO,
+            fail_rate: 0.0,
+            rate_limit: Some(2.0),
+            drop_rate: 0.0,
+            garbage_rate: 0.0,
+        });
+        assert!(s.rate_limit().is_ok());
+        assert!(s.rate_limit().is_ok());
+        let wait = s.rate_limit().unwrap_err();
+        assert!(wait <= Duration::from_millis(500));
+    }
+}
