@@ -131,10 +131,9 @@ pub fn check_reward_ordering(cells: &[CellSummary]) -> Check {
                 (acc.0.min(s.min), acc.1.max(s.max), acc.2 + s.count)
             })
     };
-    let (c_min, c_max, c_n) = agg(Outcome::Collision);
+    let (_, c_max, c_n) = agg(Outcome::Collision);
     let (t_min, t_max, t_n) = agg(Outcome::Timeout);
-    let (s_min, s_max, s_n) = agg(Outcome::Success);
-    let _ = (c_min, s_max);
+    let (s_min, _, s_n) = agg(Outcome::Success);
     // Compare only outcomes that occurred.
     let collision_below = c_n == 0 || (t_n > 0 && c_max < t_min) || (t_n == 0 && (s_n == 0 || c_max < s_min));
     let timeout_below = t_n == 0 || s_n == 0 || t_max < s_min;

@@ -169,11 +169,15 @@ impl MergeWorld {
             (Tier::T1 | Tier::T2, Disposition::Committed) => Phase::Hold,
             _ => Phase::Open { crawling_since: None, floor_since: None },
         };
+        // The steady history before t = 0 is observed through the same noise
+        // as every later turn (tier 2 only).
         let rel_rate = cruise - v_ego;
-        let lane_history = History::steady(Sample { position_m: x_lane - ego_start.s, velocity_mps: cruise }, rel_rate);
-        let follower_history =
-            History::steady(Sample { position_m: x_lane - follower_gap - ego_start.s, velocity_mps: cruise }, rel_rate);
-        let mut world = MergeWorld {
+        let mut noise = (tier == Tier::T2).then_some(noise);
+        let lane_now = Sample { position_m: x_lane - ego_start.s, velocity_mps: cruise };
+        let follower_now = Sample { position_m: x_lane - follower_gap - ego_start.s, velocity_mps: cruise };
+        let lane_history = History::steady(observe_noisy(&mut noise, &params.tier2, lane_now), rel_rate);
+        let follower_history = History::steady(observe_noisy(&mut noise, &params.tier2, follower_now), rel_rate);
+        MergeWorld {
             disposition,
             params: params.clone(),
             merge_point,
@@ -183,34 +187,9 @@ impl MergeWorld {
             cruise,
             phase,
             revealed: tier != Tier::T3,
-            noise: (tier == Tier::T2).then_some(noise),
+            noise,
             lane_history,
             follower_history,
-        };
-        // The steady history before t = 0 is observed through the same noise.
-        if world.noise.is_some() {
-            world.lane_history = History::steady(world.noisy(world.lane_history_now()), rel_rate);
-            world.follower_history = History::steady(world.noisy(world.follower_history_now()), rel_rate);
-        }
-        world
-    }
-
-    fn lane_history_now(&self) -> Sample {
-        Sample { position_m: self.lane_car.s - self.ego_start.s, velocity_mps: self.lane_car.v }
-    }
-
-    fn follower_history_now(&self) -> Sample {
-        Sample { position_m: self.follower.s - self.ego_start.s, velocity_mps: self.follower.v }
-    }
-
-    fn noisy(&mut self, s: Sample) -> Sample {
-        let (sp, sv) = (self.params.tier2.position_noise_m, self.params.tier2.speed_noise_mps);
-        match self.noise.as_mut() {
-            Some(rng) => Sample {
-                position_m: s.position_m + sp * rng.standard_noise(),
-                velocity_mps: (s.velocity_mps + sv * rng.standard_noise()).max(0.0),
-            },
-            None => s,
         }
     }
 
@@ -316,6 +295,18 @@ impl MergeWorld {
     }
 }
 
+/// What the ego observes of a lane car: the truth, plus seeded noise on the
+/// observation-noise tier.
+fn observe_noisy(noise: &mut Option<EpisodeRng>, sd: &MergeTier2, s: Sample) -> Sample {
+    match noise.as_mut() {
+        Some(rng) => Sample {
+            position_m: s.position_m + sd.position_noise_m * rng.standard_noise(),
+            velocity_mps: (s.velocity_mps + sd.speed_noise_mps * rng.standard_noise()).max(0.0),
+        },
+        None => s,
+    }
+}
+
 impl World for MergeWorld {
     fn ego_start(&self) -> Body {
         self.ego_start
@@ -357,7 +348,8 @@ impl World for MergeWorld {
     fn observe(&mut self, ego: &Body) -> Scene {
         let lane = Sample { position_m: self.lane_car.s - ego.s, velocity_mps: self.lane_car.v };
         let follower = Sample { position_m: self.follower.s - ego.s, velocity_mps: self.follower.v };
-        let (lane, follower) = (self.noisy(lane), self.noisy(follower));
+        let lane = observe_noisy(&mut self.noise, &self.params.tier2, lane);
+        let follower = observe_noisy(&mut self.noise, &self.params.tier2, follower);
         Scene::ContestedMerge {
             ego_to_merge_m: self.merge_point - ego.s,
             ramp_left_m: self.params.road.taper_length_m - ego.s,
