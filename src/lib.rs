@@ -19,6 +19,7 @@ pub mod grading;
 pub mod llm;
 pub mod observation;
 pub mod policy;
+pub mod report;
 pub mod rng;
 pub mod scenario;
 pub mod serve;

@@ -3,6 +3,7 @@
 
 mod baselines;
 mod eval;
+mod report;
 mod serve;
 mod validate;
 
@@ -60,6 +61,8 @@ pub enum Command {
     Validate(validate::ValidateArgs),
     /// Serve a scripted policy as an OpenAI-compatible chat endpoint.
     Serve(serve::ServeArgs),
+    /// Leaderboards, paired comparisons, plots and an offline report.html from run directories.
+    Report(report::ReportArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -68,6 +71,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Baselines(args) => args.run(),
         Command::Validate(args) => args.run(),
         Command::Serve(args) => args.run(),
+        Command::Report(args) => args.run(),
     }
 }
 

@@ -2,4 +2,5 @@
 
 mod core;
 mod eval;
+mod report;
 mod serve;

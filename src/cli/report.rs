@@ -1,0 +1,119 @@
+//! `negotiator report`: leaderboards with bootstrap CIs, paired
+//! comparisons, pass^k, SVG plots and one offline report.html from run
+//! directories. Every output goes to `--out` (default `results/report`);
+//! the main tables are printed on stdout in `--format`.
+
+use super::{parse_list, usage};
+use crate::export::Format;
+use crate::report::{self, MIN_RESAMPLES, ReportError, ReportOptions};
+use crate::scenario::Tier;
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// Run directories (from `eval`), or directories holding run
+    /// directories. Runs of one configuration (shards) are joined.
+    #[arg(value_name = "RUN_DIR", required = true)]
+    pub runs: Vec<PathBuf>,
+    /// Directory holding the reference baselines.csv (expert ceiling,
+    /// always_proceed floor). Without the flag and without the default
+    /// directory, the references are computed in-process.
+    #[arg(long, value_name = "DIR")]
+    pub baselines: Option<PathBuf>,
+    /// Output directory for report.html, report.md, report.json, the CSV
+    /// tables and plots/*.svg.
+    #[arg(long, value_name = "DIR", default_value = "results/report")]
+    pub out: PathBuf,
+    /// Format of the tables printed on stdout (csv: the leaderboard only;
+    /// json: the whole report.json).
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    pub format: Format,
+    /// Tiers of the leaderboard, outcome, paired and pass^k tables: 1, 2,
+    /// 3, a comma-separated list, or all (default: 1 if the runs have tier-1
+    /// episodes, else every tier). The per-tier table always has every tier.
+    #[arg(long)]
+    pub tiers: Option<String>,
+    /// Bootstrap resamples per interval (at least 10000).
+    #[arg(long, default_value_t = MIN_RESAMPLES)]
+    pub resamples: usize,
+    /// Shift every bootstrap seed (0 reproduces the documented figures).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Transcripts embedded in report.html per (model, scenario, tier).
+    #[arg(long, default_value_t = 3)]
+    pub transcripts: usize,
+    /// Print nothing but errors.
+    #[arg(long, short = 'q')]
+    pub quiet: bool,
+}
+
+impl ReportArgs {
+    pub fn options(&self) -> anyhow::Result<ReportOptions> {
+        if self.resamples < MIN_RESAMPLES {
+            return Err(usage(format!("--resamples: at least {MIN_RESAMPLES}, got {}", self.resamples)));
+        }
+        if self.resamples > 10_000_000 {
+            return Err(usage(format!("--resamples: at most 10000000, got {}", self.resamples)));
+        }
+        let tiers = match &self.tiers {
+            Some(t) => Some(parse_list(t, &Tier::ALL, "--tiers")?),
+            None => None,
+        };
+        Ok(ReportOptions {
+            dirs: self.runs.clone(),
+            baselines: self.baselines.clone().unwrap_or_else(|| PathBuf::from("results/baselines")),
+            baselines_explicit: self.baselines.is_some(),
+            tiers,
+            resamples: self.resamples,
+            seed: self.seed,
+            transcripts_per_cell: self.transcripts,
+        })
+    }
+
+    pub fn run(self) -> anyhow::Result<ExitCode> {
+        let started = Instant::now();
+        let opts = self.options()?;
+        let input = |e: ReportError| if e.is_input() { usage(e.to_string()) } else { anyhow::Error::new(e) };
+        let built = report::build(&opts).map_err(input)?;
+        let written = report::write(&built, &self.out).map_err(input)?;
+        if !self.quiet {
+            let r = &built.report;
+            let mut out = std::io::stdout().lock();
+            match self.format {
+                Format::Json => {
+                    serde_json::to_writer_pretty(&mut out, r)?;
+                    writeln!(out)?;
+                }
+                Format::Csv => write!(out, "{}", r.leaderboard.csv().csv())?,
+                Format::Md => {
+                    for t in r.display_tables() {
+                        writeln!(out, "{}", t.markdown(3))?;
+                    }
+                }
+                Format::Table => {
+                    for t in r.display_tables() {
+                        writeln!(out, "{}", t.text())?;
+                    }
+                }
+            }
+            out.flush()?;
+            for w in &r.warnings {
+                eprintln!("warning: {w}");
+            }
+            let html = written.iter().find(|p| p.ends_with("report.html"));
+            let size = html.and_then(|p| std::fs::metadata(p).ok()).map_or(0, |m| m.len());
+            eprintln!(
+                "wrote {} files to {} (report.html {:.1} MB, {} transcripts) in {:.2} s",
+                written.len(),
+                self.out.display(),
+                size as f64 / 1e6,
+                built.drill.transcripts(),
+                started.elapsed().as_secs_f64()
+            );
+        }
+        Ok(ExitCode::SUCCESS)
+    }
+}

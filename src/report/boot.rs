@@ -1,0 +1,204 @@
+//! The report's bootstraps: seeds, and the clustered interval for an
+//! average over scenarios. Per-cell and paired intervals are those of
+//! [`crate::stats`].
+//!
+//! Every interval is a percentile bootstrap 95% interval: the type-7
+//! quantiles ([`crate::stats::quantile`]) at 0.025 and 0.975 of the sorted
+//! replicate statistics. Each statistic has its own fixed seed derived from
+//! what it is (so adding a model never changes another model's interval),
+//! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,
+//! so with one rollout per seed the two agree digit for digit.
+
+use crate::eval::config::fnv_hex;
+use crate::scenario::{ScenarioKind, Tier};
+use crate::stats::{Interval, StatsError, bootstrap_mean_ci, paired_bootstrap_diff_ci, quantile};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn fnv_u64(s: &str) -> u64 {
+    u64::from_str_radix(&fnv_hex(s), 16).unwrap_or(0)
+}
+
+/// Seed of the statistic named `label`, shifted by the user's `--seed`.
+pub fn seed_for(base: u64, label: &str) -> u64 {
+    fnv_u64(label) ^ base.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+/// Seed of a (scenario, tier) cell; with base 0 it is `eval`'s summary seed.
+pub fn cell_seed(base: u64, scenario: ScenarioKind, tier: Tier) -> u64 {
+    seed_for(base, &format!("{scenario}/{tier}"))
+}
+
+fn constant(xs: &[f64]) -> Option<f64> {
+    let first = *xs.first()?;
+    (first.is_finite() && xs.iter().all(|&x| x == first)).then_some(first)
+}
+
+/// [`bootstrap_mean_ci`], skipping the resampling when every value is the
+/// same (the result is that value three times either way).
+pub fn mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
+    match constant(xs) {
+        Some(v) if resamples > 0 => Interval { estimate: v, lo: v, hi: v },
+        _ => bootstrap_mean_ci(xs, resamples, seed),
+    }
+}
+
+/// [`paired_bootstrap_diff_ci`], skipping the resampling when every
+/// difference is the same.
+pub fn paired_ci(a: &[f64], b: &[f64], resamples: usize, seed: u64) -> Result<Interval, StatsError> {
+    if a.len() == b.len() && resamples > 0 {
+        let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+        if let Some(v) = constant(&d) {
+            return Ok(Interval { estimate: v, lo: v, hi: v });
+        }
+    }
+    paired_bootstrap_diff_ci(a, b, resamples, seed)
+}
+
+/// Uniform index in `[0, n)`, `1 <= n < 2^32`, by Lemire's multiply-shift
+/// with rejection (exactly unbiased).
+fn index(rng: &mut ChaCha8Rng, n: u32, threshold: u32) -> usize {
+    loop {
+        let m = u64::from(rng.next_u32()) * u64::from(n);
+        if (m as u32) >= threshold {
+            return (m >> 32) as usize;
+        }
+    }
+}
+
+/// Clustered percentile-bootstrap 95% interval for the mean over groups of
+/// the group means (the leaderboard's average over scenarios).
+///
+/// `clusters[c]` holds cluster `c`'s values as `(group, value)` pairs (a
+/// cluster is a seed; its values are that seed's per-scenario, per-tier
+/// successes; a group is a scenario). Estimate: `(1/G') Σ_g mean_g` over the
+/// `G'` groups with values, `mean_g` pooling all values of group `g`. Each
+/// replicate draws as many clusters as there are, with replacement, and
+/// recomputes the same statistic from the drawn clusters' values (counted
+/// with multiplicity; a group no drawn cluster has is left out of that
+/// replicate's average). Bounds: type-7 quantiles at 0.025 and 0.975,
+/// clamped to the range of the values. When every cluster has one value
+/// per group this is the mean of all values, and the interval is that of
+/// [`crate::stats::bootstrap_clustered_mean_ci`] up to resampling noise.
+pub fn clustered_mean_of_means_ci(
+    clusters: &[Vec<(usize, f64)>],
+    groups: usize,
+    resamples: usize,
+    seed: u64,
+) -> Interval {
+    let nan = Interval { estimate: f64::NAN, lo: f64::NAN, hi: f64::NAN };
+    let clusters: Vec<&Vec<(usize, f64)>> = clusters.iter().filter(|c| !c.is_empty()).collect();
+    if clusters.is_empty() || groups == 0 || clusters.len() >= u32::MAX as usize {
+        return nan;
+    }
+    // Per cluster, per group: (sum, count).
+    let mut sums = vec![0.0; clusters.len() * groups];
+    let mut counts = vec![0.0; clusters.len() * groups];
+    let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (c, values) in clusters.iter().enumerate() {
+        for &(g, v) in values.iter() {
+            if g >= groups || !v.is_finite() {
+                return nan;
+            }
+            sums[c * groups + g] += v;
+            counts[c * groups + g] += 1.0;
+            min = min.min(v);
+            max = max.max(v);
+        }
+    }
+    let stat = |s: &[f64], n: &[f64]| {
+        let (mut total, mut k) = (0.0, 0usize);
+        for g in 0..groups {
+            if n[g] > 0.0 {
+                total += s[g] / n[g];
+                k += 1;
+            }
+        }
+        total / k as f64
+    };
+    let mut s = vec![0.0; groups];
+    let mut n = vec![0.0; groups];
+    for c in 0..clusters.len() {
+        for g in 0..groups {
+            s[g] += sums[c * groups + g];
+            n[g] += counts[c * groups + g];
+        }
+    }
+    let estimate = stat(&s, &n).clamp(min, max);
+    if resamples == 0 {
+        return Interval { estimate, lo: f64::NAN, hi: f64::NAN };
+    }
+    if min == max {
+        return Interval { estimate, lo: estimate, hi: estimate };
+    }
+    let k = clusters.len() as u32;
+    let threshold = k.wrapping_neg() % k;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut stats = Vec::with_capacity(resamples);
+    for _ in 0..resamples {
+        s.iter_mut().for_each(|x| *x = 0.0);
+        n.iter_mut().for_each(|x| *x = 0.0);
+        for _ in 0..k {
+            let c = index(&mut rng, k, threshold);
+            for g in 0..groups {
+                s[g] += sums[c * groups + g];
+                n[g] += counts[c * groups + g];
+            }
+        }
+        stats.push(stat(&s, &n));
+    }
+    stats.sort_unstable_by(f64::total_cmp);
+    let lo = quantile(&stats, 0.025).clamp(min, max);
+    let hi = quantile(&stats, 0.975).clamp(min, max);
+    Interval { estimate, lo, hi }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::bootstrap_clustered_mean_ci;
+
+    #[test]
+    fn cell_seed_is_the_summary_seed() {
+        // eval's summary: u64::from_str_radix(fnv_hex("scenario/tier"), 16).
+        let expected = u64::from_str_radix(&fnv_hex("yield_standoff/1"), 16).unwrap();
+        assert_eq!(cell_seed(0, ScenarioKind::YieldStandoff, Tier::T1), expected);
+        assert_ne!(cell_seed(1, ScenarioKind::YieldStandoff, Tier::T1), expected);
+    }
+
+    #[test]
+    fn constant_samples_skip_resampling_with_the_same_answer() {
+        let xs = [0.1; 40];
+        assert_eq!(mean_ci(&xs, 1000, 3), bootstrap_mean_ci(&xs, 1000, 3));
+        let a = [1.0, 0.0, 1.0];
+        assert_eq!(paired_ci(&a, &a, 1000, 1).unwrap(), Interval { estimate: 0.0, lo: 0.0, hi: 0.0 });
+        assert!(paired_ci(&a, &a[..2], 1000, 1).is_err());
+    }
+
+    #[test]
+    fn balanced_clusters_match_the_pooled_clustered_bootstrap() {
+        // 120 seeds x 3 scenarios, deterministic pattern with per-seed correlation.
+        let clusters: Vec<Vec<(usize, f64)>> = (0..120)
+            .map(|s| (0..3).map(|g| (g, f64::from(u8::from((s * 7 + g * 3) % 5 < 2 + (s % 2))))).collect())
+            .collect();
+        let values: Vec<Vec<f64>> = clusters.iter().map(|c| c.iter().map(|&(_, v)| v).collect()).collect();
+        let ours = clustered_mean_of_means_ci(&clusters, 3, 10_000, 5);
+        let pooled = bootstrap_clustered_mean_ci(&values, 10_000, 5);
+        assert!((ours.estimate - pooled.estimate).abs() < 1e-12);
+        assert!((ours.lo - pooled.lo).abs() < 0.01 && (ours.hi - pooled.hi).abs() < 0.01, "{ours:?} {pooled:?}");
+        assert_eq!(ours, clustered_mean_of_means_ci(&clusters, 3, 10_000, 5));
+    }
+
+    #[test]
+    fn unbalanced_groups_average_the_group_means() {
+        // Group 0: values 1, 1 (mean 1); group 1: 0, 0, 0, 1 (mean 0.25).
+        let clusters = vec![vec![(0, 1.0), (1, 0.0)], vec![(0, 1.0), (1, 0.0)], vec![(1, 0.0)], vec![(1, 1.0)]];
+        let iv = clustered_mean_of_means_ci(&clusters, 2, 2000, 1);
+        assert_eq!(iv.estimate, 0.625);
+        assert!(iv.lo <= iv.estimate && iv.estimate <= iv.hi);
+        let flat = clustered_mean_of_means_ci(&[vec![(0, 1.0)], vec![(0, 1.0)]], 1, 100, 1);
+        assert_eq!((flat.estimate, flat.lo, flat.hi), (1.0, 1.0, 1.0));
+        assert!(clustered_mean_of_means_ci(&[], 3, 100, 1).estimate.is_nan());
+        assert!(clustered_mean_of_means_ci(&[vec![(0, 0.5)], vec![(0, 1.0)]], 1, 0, 1).lo.is_nan());
+    }
+}

@@ -1,0 +1,408 @@
+//! `negotiator report`: run directories in, the tables and figures a
+//! benchmark paper needs out — Markdown, CSV and JSON tables, SVG plots and
+//! one offline `report.html` with a per-episode drill-down.
+//!
+//! Layout: [`load`] reads and merges run directories; [`tables`] builds the
+//! leaderboard, per-tier, outcome and cost tables; [`paired`] the pairwise
+//! comparisons; [`passk`] pass^k; [`reference`] the expert ceiling and
+//! `always_proceed` floor; [`boot`] the report's bootstraps; [`drill`] the
+//! drill-down data; [`plots`] one file per kind of figure; [`html`] the page;
+//! [`table`] the table type and its renderings.
+
+pub mod boot;
+pub mod drill;
+pub mod html;
+pub mod load;
+pub mod paired;
+mod par;
+pub mod passk;
+pub mod plots;
+pub mod reference;
+pub mod table;
+pub mod tables;
+
+use crate::scenario::Tier;
+use load::{Dataset, ModelData, RunSource};
+use paired::PairRow;
+use passk::PassKRow;
+use plots::Plot;
+use reference::References;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use table::Table;
+use tables::{CostRow, Leaderboard, OutcomeRow, TierRow, tiers_label};
+
+/// The least number of bootstrap resamples accepted (SPEC section 8).
+pub const MIN_RESAMPLES: usize = 10_000;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("{0}: no such directory")]
+    MissingDir(String),
+    #[error("{0}: not a run directory (no run.json or rollouts.jsonl in it or in its subdirectories)")]
+    NotARunDir(String),
+    #[error("{0}: run directory given twice")]
+    GivenTwice(String),
+    #[error("{path}: unreadable run.json ({message})")]
+    BadRunJson { path: String, message: String },
+    #[error(
+        "duplicate episode ({key}) of model '{model}': {first} and {second}; an episode may appear once \
+         (shards of one run must not overlap, and a run directory must not be copied into another)"
+    )]
+    DuplicateEpisode { key: String, model: String, first: String, second: String },
+    #[error("baseline table {path}: {message}")]
+    Baselines { path: String, message: String },
+    #[error("nothing to report: {0}")]
+    Empty(String),
+    #[error("{path}: {source}")]
+    Io { path: String, source: std::io::Error },
+}
+
+impl ReportError {
+    /// Bad input (exit code 2), as opposed to an I/O failure.
+    pub fn is_input(&self) -> bool {
+        !matches!(self, ReportError::Io { .. })
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    /// Run directories, or directories holding run directories.
+    pub dirs: Vec<PathBuf>,
+    /// Directory with `baselines.csv`.
+    pub baselines: PathBuf,
+    /// `baselines` was given explicitly (its absence is then an error).
+    pub baselines_explicit: bool,
+    /// Leaderboard scope; `None`: tier 1 if any run has it, else every tier.
+    pub tiers: Option<Vec<Tier>>,
+    pub resamples: usize,
+    /// Shifts every bootstrap seed (0: the documented seeds).
+    pub seed: u64,
+    /// Transcripts embedded in report.html per (model, scenario, tier).
+    pub transcripts_per_cell: usize,
+}
+
+impl Default for ReportOptions {
+    fn default() -> Self {
+        ReportOptions {
+            dirs: Vec::new(),
+            baselines: PathBuf::from("results/baselines"),
+            baselines_explicit: false,
+            tiers: None,
+            resamples: MIN_RESAMPLES,
+            seed: 0,
+            transcripts_per_cell: 3,
+        }
+    }
+}
+
+/// One model as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelInfo {
+    pub label: String,
+    pub model: String,
+    pub config_hash: String,
+    pub run_dirs: Vec<String>,
+    pub episodes: usize,
+    pub rollouts_per_seed: u32,
+}
+
+/// Everything `report.json` holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub negotiator_version: &'static str,
+    pub resamples: usize,
+    pub bootstrap_seed: u64,
+    pub interval: &'static str,
+    /// Leaderboard scope.
+    pub tiers: Vec<Tier>,
+    pub runs: Vec<RunSource>,
+    pub models: Vec<ModelInfo>,
+    pub leaderboard: Leaderboard,
+    pub tier_rows: Vec<TierRow>,
+    pub outcomes: Vec<OutcomeRow>,
+    pub costs: Vec<CostRow>,
+    pub paired: Vec<PairRow>,
+    pub pass_k: Vec<PassKRow>,
+    pub references: References,
+    pub plots: Vec<Plot>,
+    pub warnings: Vec<String>,
+}
+
+/// The report and the drill-down data of report.html.
+pub struct Built {
+    pub report: Report,
+    pub drill: drill::DrillData,
+}
+
+const INTERVAL: &str = "95% percentile bootstrap: type-7 (linear interpolation) quantiles at 0.025 and 0.975 of the \
+                        sorted resample statistics";
+
+/// Term and definition, shown in report.md and report.html.
+pub const DEFINITIONS: [(&str, &str); 8] = [
+    (
+        "Success",
+        "Share of episodes ending with the ego at its goal without a collision. Per scenario, the unit is a seed \
+         (scenario, tier, seed): its value is its success rate over its rollouts (0 or 1 with one rollout), so \
+         rollouts of one seed are never counted as independent.",
+    ),
+    (
+        "95% CI",
+        "Percentile bootstrap with at least 10,000 seeded resamples: resample the units with replacement, compute the \
+         statistic, and take the type-7 quantiles (Hyndman-Fan type 7, linear interpolation between order statistics: \
+         h = (B - 1) q, Q = x[floor h] + (h - floor h)(x[floor h + 1] - x[floor h]), the default of R and numpy) at \
+         q = 0.025 and 0.975. Seeds are fixed per statistic, so the report is reproducible; a (scenario, tier) cell \
+         uses the seed of eval's summary and gives the same interval.",
+    ),
+    (
+        "Average",
+        "Mean of the per-scenario successes. Its CI is a clustered bootstrap: each resample draws seeds with \
+         replacement, jointly across scenarios (and tiers), keeping every value of a drawn seed, and recomputes the \
+         mean of the scenario means.",
+    ),
+    (
+        "Yield DC",
+        "Decision correctness on yield_standoff: the share of the agent's last 2 decisions before the go / give-way \
+         question was settled that match what the hidden disposition requires.",
+    ),
+    (
+        "Expert ceiling, always_proceed floor",
+        "The reference policies' success from the baseline table (separate runs of 200 seeds, normal-approximation \
+         intervals), as reference levels rather than paired comparisons.",
+    ),
+    (
+        "Paired comparison",
+        "On the (scenario, tier, seed) keys both models have: the mean of the per-key success differences with a \
+         paired percentile bootstrap CI over the keys, and an exact two-sided McNemar test on the discordant pairs \
+         (binomial, p = 1/2; with several rollouts, each key's lowest shared rollout). 'tied' when the CI covers 0.",
+    ),
+    (
+        "pass^k",
+        "With r rollouts per seed: mean over seeds of C(c, k) / C(r, k) (c successes), the chance that k rollouts of \
+         a seed all succeed; only seeds with all r rollouts count, the excluded ones are counted.",
+    ),
+    (
+        "Infra errors, missing",
+        "Rollouts whose requests failed after every retry (errors.jsonl) are excluded from all scores and counted; \
+         'missing' counts the episodes of the run's selection (run.json) without a finished line. Parse errors are \
+         bad driving and are scored.",
+    ),
+];
+
+/// The leaderboard scope: the requested tiers, else tier 1 if any run has
+/// it, else every tier present.
+fn scope(data: &Dataset, requested: Option<&[Tier]>) -> Vec<Tier> {
+    if let Some(t) = requested {
+        return t.to_vec();
+    }
+    let present: Vec<Tier> =
+        Tier::ALL.into_iter().filter(|t| data.models.iter().any(|m| m.episodes.iter().any(|e| e.tier == *t))).collect();
+    if present.contains(&Tier::T1) { vec![Tier::T1] } else { present }
+}
+
+/// Read the runs and compute every table and figure.
+pub fn build(opts: &ReportOptions) -> Result<Built, ReportError> {
+    let dirs = load::resolve_dirs(&opts.dirs)?;
+    let data = load::load(&dirs)?;
+    let refs = reference::load(&opts.baselines, opts.baselines_explicit)?;
+    build_from(data, refs, opts)
+}
+
+/// Compute every table and figure from loaded runs.
+pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> Result<Built, ReportError> {
+    if data.models.iter().all(|m| m.episodes.is_empty()) {
+        return Err(ReportError::Empty("the run directories hold no finished episode".into()));
+    }
+    let tiers = scope(&data, opts.tiers.as_deref());
+    let mut warnings = data.warnings.clone();
+    let leaderboard = tables::leaderboard(&data.models, &refs, &tiers, opts.resamples, opts.seed);
+    if leaderboard.scenarios.is_empty() {
+        warnings.push(format!("no episode in the leaderboard scope ({}); see the per-tier table", tiers_label(&tiers)));
+    }
+    // Every other table, the plots and the drill-down follow the leaderboard order.
+    data.models.sort_by_key(|m| leaderboard.rows.iter().position(|r| r.model == m.label).unwrap_or(usize::MAX));
+    let ordered: Vec<&ModelData> = data.models.iter().collect();
+    let tier_rows = tables::tier_rows(&ordered, &refs, opts.resamples, opts.seed);
+    let outcomes = tables::outcome_rows(&ordered, &tiers);
+    let costs = tables::cost_rows(&ordered);
+    let paired = paired::all_pairs(&ordered, &tiers, opts.resamples, opts.seed);
+    let pass_k = passk::pass_k_rows(&ordered, &tiers);
+    let chosen = drill::choose(&data, opts.transcripts_per_cell);
+    let transcripts = drill::load(&data, &chosen)?;
+    if transcripts.len() < chosen.len() {
+        warnings.push(format!("{} transcript line(s) could not be read in full", chosen.len() - transcripts.len()));
+    }
+    let plots = plots::all(&plots::PlotInput {
+        leaderboard: &leaderboard,
+        tiers: &tier_rows,
+        outcomes: &outcomes,
+        refs: &refs,
+        data: &data,
+        transcripts: &transcripts,
+    });
+    let drill = drill::build(&data, &transcripts, opts.transcripts_per_cell);
+    let models = ordered
+        .iter()
+        .map(|m| ModelInfo {
+            label: m.label.clone(),
+            model: m.model.clone(),
+            config_hash: m.config_hash.clone(),
+            run_dirs: m.runs.iter().map(|&i| data.runs[i].dir.display().to_string()).collect(),
+            episodes: m.episodes.len(),
+            rollouts_per_seed: m.rollouts,
+        })
+        .collect();
+    let report = Report {
+        negotiator_version: env!("CARGO_PKG_VERSION"),
+        resamples: opts.resamples,
+        bootstrap_seed: opts.seed,
+        interval: INTERVAL,
+        tiers,
+        runs: data.runs,
+        models,
+        leaderboard,
+        tier_rows,
+        outcomes,
+        costs,
+        paired,
+        pass_k,
+        references: refs,
+        plots,
+        warnings,
+    };
+    Ok(Built { report, drill })
+}
+
+impl Report {
+    /// The tables in display form, in report order.
+    pub fn display_tables(&self) -> Vec<Table> {
+        let mut t = vec![
+            self.leaderboard.table(self.resamples),
+            tables::tier_table(&self.tier_rows),
+            tables::outcome_table(&self.outcomes, &self.tiers, false),
+            tables::cost_table(&self.costs),
+            paired::paired_table(&self.paired, &self.tiers, self.resamples),
+        ];
+        if !self.pass_k.is_empty() {
+            t.push(passk::pass_k_table(&self.pass_k, &self.tiers, false));
+        }
+        t
+    }
+
+    /// The tables in CSV form (one numeric column per figure).
+    pub fn csv_tables(&self) -> Vec<Table> {
+        let mut t = vec![
+            self.leaderboard.csv(),
+            tables::tier_csv(&self.tier_rows),
+            tables::outcome_table(&self.outcomes, &self.tiers, true),
+            tables::cost_csv(&self.costs),
+            paired::paired_csv(&self.paired),
+        ];
+        if !self.pass_k.is_empty() {
+            t.push(passk::pass_k_table(&self.pass_k, &self.tiers, true));
+        }
+        t
+    }
+
+    pub fn runs_table(&self) -> Table {
+        let mut t = Table::new(
+            "runs",
+            "Run directories",
+            &["model", "directory", "config", "shard", "episodes", "errors.jsonl lines", "unreadable lines"],
+        );
+        for r in &self.runs {
+            let label = self
+                .models
+                .iter()
+                .find(|m| m.config_hash == r.config_hash && m.model == r.model)
+                .map_or(r.model.clone(), |m| m.label.clone());
+            t.push(vec![
+                label,
+                r.dir.display().to_string(),
+                r.config_hash.chars().take(8).collect(),
+                r.shard.clone().unwrap_or_else(|| "-".into()),
+                r.episodes.to_string(),
+                r.infra_error_lines.to_string(),
+                r.bad_lines.to_string(),
+            ]);
+        }
+        t
+    }
+
+    /// `report.md`: every table, the figures (linked), warnings, definitions.
+    pub fn markdown(&self) -> String {
+        let mut s = String::from("# negotiator report\n\n");
+        s.push_str(&format!(
+            "{} model(s), {} run director{}, {} episodes; leaderboard scope: {}; {} bootstrap resamples.\n\n",
+            self.models.len(),
+            self.runs.len(),
+            if self.runs.len() == 1 { "y" } else { "ies" },
+            self.runs.iter().map(|r| r.episodes).sum::<usize>(),
+            tiers_label(&self.tiers),
+            self.resamples
+        ));
+        for w in &self.warnings {
+            s.push_str(&format!("> warning: {w}\n\n"));
+        }
+        let tables = self.display_tables();
+        s.push_str(&tables[0].markdown(2));
+        s.push_str("\n## Figures\n\n");
+        for p in &self.plots {
+            s.push_str(&format!("![{}](plots/{}.svg)\n\n*{}*\n\n", p.title.replace(['[', ']'], ""), p.name, p.caption));
+        }
+        for t in &tables[1..] {
+            s.push('\n');
+            s.push_str(&t.markdown(2));
+        }
+        s.push('\n');
+        s.push_str(&self.runs_table().markdown(2));
+        s.push_str("\n## Definitions\n\n");
+        for (term, def) in DEFINITIONS {
+            s.push_str(&format!("- **{term}.** {def}\n"));
+        }
+        s
+    }
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
+    std::fs::write(path, bytes).map_err(|source| ReportError::Io { path: path.display().to_string(), source })
+}
+
+/// Write every output into `out`; returns the files written. Earlier
+/// `*.svg` files in `out/plots` are removed first (the directory is the
+/// report's), so no stale figure survives.
+pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    let io = |path: &Path| {
+        let path = path.display().to_string();
+        move |source| ReportError::Io { path, source }
+    };
+    let plots_dir = out.join("plots");
+    std::fs::create_dir_all(&plots_dir).map_err(io(&plots_dir))?;
+    for entry in std::fs::read_dir(&plots_dir).map_err(io(&plots_dir))?.flatten() {
+        let p = entry.path();
+        if p.extension().is_some_and(|e| e == "svg") {
+            std::fs::remove_file(&p).map_err(io(&p))?;
+        }
+    }
+    let mut written = Vec::new();
+    let mut put = |path: PathBuf, bytes: &[u8]| -> Result<(), ReportError> {
+        write_file(&path, bytes)?;
+        written.push(path);
+        Ok(())
+    };
+    let r = &built.report;
+    put(out.join("report.html"), html::render(r, &built.drill).as_bytes())?;
+    put(out.join("report.md"), r.markdown().as_bytes())?;
+    let json = serde_json::to_string_pretty(r).map_err(|e| ReportError::Io {
+        path: out.join("report.json").display().to_string(),
+        source: std::io::Error::other(e),
+    })?;
+    put(out.join("report.json"), format!("{json}\n").as_bytes())?;
+    for t in r.csv_tables() {
+        put(out.join(format!("{}.csv", t.name)), t.csv().as_bytes())?;
+    }
+    for p in &r.plots {
+        put(plots_dir.join(format!("{}.svg", p.name)), p.file_text().as_bytes())?;
+    }
+    Ok(written)
+}

@@ -1,0 +1,194 @@
+//! Paired comparison of every pair of models on the (scenario, tier, seed)
+//! keys both have: the same scenario instances, so the difference in
+//! success is estimated pair by pair.
+//!
+//! - Difference: mean over shared keys of (success A − success B), each
+//!   key's success being its rate over rollouts; 95% paired percentile
+//!   bootstrap CI resampling the keys ([`crate::stats::paired_bootstrap_diff_ci`]).
+//! - Exact two-sided McNemar test on the discordant pairs: A succeeded and
+//!   B failed (`a_only`) against the reverse (`b_only`). With several
+//!   rollouts per seed the test uses each key's lowest rollout index that
+//!   both models have, so its pairs stay independent.
+//! - Verdict: "tied" when the CI covers 0, else the better model.
+
+use super::boot::{paired_ci, seed_for};
+use super::load::ModelData;
+use super::par::par_map;
+use super::table::{Table, f2, f4, with_ci};
+use super::tables::{Unit, tiers_label, units};
+use crate::scenario::Tier;
+use crate::stats::{Interval, mcnemar_exact};
+use serde::Serialize;
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PairRow {
+    pub a: String,
+    pub b: String,
+    /// Shared (scenario, tier, seed) keys.
+    pub keys: usize,
+    pub success_a: f64,
+    pub success_b: f64,
+    /// success A − success B.
+    pub diff: Interval,
+    /// Pairs where A succeeded and B failed.
+    pub a_only: usize,
+    /// Pairs where B succeeded and A failed.
+    pub b_only: usize,
+    pub mcnemar_p: f64,
+    pub verdict: String,
+}
+
+/// Compare `a` and `b` on their shared keys within `tiers`.
+pub fn compare(a: &ModelData, b: &ModelData, tiers: &[Tier], resamples: usize, base: u64) -> PairRow {
+    let ua = units(&a.episodes, tiers);
+    let ub = units(&b.episodes, tiers);
+    let (mut va, mut vb) = (Vec::new(), Vec::new());
+    let (mut a_only, mut b_only) = (0usize, 0usize);
+    let (mut i, mut j) = (0, 0);
+    while i < ua.len() && j < ub.len() {
+        match ua[i].key().cmp(&ub[j].key()) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                va.push(ua[i].value());
+                vb.push(ub[j].value());
+                if let Some((sa, sb)) = first_shared_rollout(a, &ua[i], b, &ub[j]) {
+                    match (sa, sb) {
+                        (true, false) => a_only += 1,
+                        (false, true) => b_only += 1,
+                        _ => {}
+                    }
+                }
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    let seed = seed_for(base, &format!("paired/{}/{}", a.label, b.label));
+    let diff =
+        paired_ci(&va, &vb, resamples, seed).unwrap_or(Interval { estimate: f64::NAN, lo: f64::NAN, hi: f64::NAN });
+    let verdict = if va.is_empty() {
+        "no shared seeds".to_string()
+    } else if diff.lo > 0.0 {
+        format!("{} better", a.label)
+    } else if diff.hi < 0.0 {
+        format!("{} better", b.label)
+    } else {
+        "tied".to_string()
+    };
+    let mean = |v: &[f64]| if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 };
+    PairRow {
+        a: a.label.clone(),
+        b: b.label.clone(),
+        keys: va.len(),
+        success_a: mean(&va),
+        success_b: mean(&vb),
+        diff,
+        a_only,
+        b_only,
+        mcnemar_p: mcnemar_exact(a_only, b_only),
+        verdict,
+    }
+}
+
+/// Success of both models on the lowest rollout index both have.
+fn first_shared_rollout(a: &ModelData, ua: &Unit, b: &ModelData, ub: &Unit) -> Option<(bool, bool)> {
+    let ea = &a.episodes[ua.start..ua.end];
+    let eb = &b.episodes[ub.start..ub.end];
+    let (mut i, mut j) = (0, 0);
+    while i < ea.len() && j < eb.len() {
+        match ea[i].rollout.cmp(&eb[j].rollout) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => return Some((ea[i].success(), eb[j].success())),
+        }
+    }
+    None
+}
+
+/// Every pair, in the order given (leaderboard order: A ranks above B).
+pub fn all_pairs(models: &[&ModelData], tiers: &[Tier], resamples: usize, base: u64) -> Vec<PairRow> {
+    let pairs: Vec<(usize, usize)> =
+        (0..models.len()).flat_map(|i| (i + 1..models.len()).map(move |j| (i, j))).collect();
+    par_map(&pairs, |&(i, j)| compare(models[i], models[j], tiers, resamples, base))
+}
+
+fn p_value(p: f64) -> String {
+    if !p.is_finite() {
+        "-".into()
+    } else if p < 0.001 {
+        "<0.001".into()
+    } else {
+        format!("{p:.3}")
+    }
+}
+
+pub fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -> Table {
+    let mut t = Table::new(
+        "paired",
+        format!("Paired comparisons on shared seeds ({})", tiers_label(tiers)),
+        &["A", "B", "shared", "success A", "success B", "A − B [95% CI]", "A only", "B only", "McNemar p", "verdict"],
+    );
+    for r in rows {
+        t.push(vec![
+            r.a.clone(),
+            r.b.clone(),
+            r.keys.to_string(),
+            f2(r.success_a),
+            f2(r.success_b),
+            signed_ci(&r.diff),
+            r.a_only.to_string(),
+            r.b_only.to_string(),
+            p_value(r.mcnemar_p),
+            r.verdict.clone(),
+        ]);
+    }
+    t.note(format!(
+        "shared: (scenario, tier, seed) keys both models have. CI: paired percentile bootstrap over the keys \
+         ({resamples} resamples); 'tied' when it covers 0. A only / B only: discordant pairs (one succeeded, the \
+         other failed) for the exact McNemar test."
+    ));
+    t
+}
+
+fn signed_ci(i: &Interval) -> String {
+    if i.lo.is_finite() { format!("{:+.2} [{:+.2}, {:+.2}]", i.estimate, i.lo, i.hi) } else { with_ci(i) }
+}
+
+pub fn paired_csv(rows: &[PairRow]) -> Table {
+    let mut t = Table::new(
+        "paired",
+        "Paired comparisons",
+        &[
+            "a",
+            "b",
+            "shared_keys",
+            "success_a",
+            "success_b",
+            "diff",
+            "diff_lo",
+            "diff_hi",
+            "a_only",
+            "b_only",
+            "mcnemar_p",
+            "verdict",
+        ],
+    );
+    for r in rows {
+        t.push(vec![
+            r.a.clone(),
+            r.b.clone(),
+            r.keys.to_string(),
+            f4(r.success_a),
+            f4(r.success_b),
+            f4(r.diff.estimate),
+            f4(r.diff.lo),
+            f4(r.diff.hi),
+            r.a_only.to_string(),
+            r.b_only.to_string(),
+            if r.mcnemar_p.is_finite() { format!("{:.6e}", r.mcnemar_p) } else { String::new() },
+            r.verdict.clone(),
+        ]);
+    }
+    t
+}

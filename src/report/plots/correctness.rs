@@ -1,0 +1,103 @@
+//! Success against decision correctness, one point per (model, scenario),
+//! with the diagonal "decisions convert to outcomes". Points below it are
+//! right calls that did not become successes.
+
+use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Svg, rate_axis_y, text_width};
+use crate::report::reference::{CEILING, FLOOR};
+use crate::report::table::f2;
+use crate::report::tables::tiers_label;
+
+pub fn plot(input: &PlotInput) -> Plot {
+    let lb = input.leaderboard;
+    let models = input.models();
+    let (left, top, size) = (56.0, 40.0, 340.0);
+    let legend_w = models.iter().map(|m| text_width(m, 11.0)).fold(140.0, f64::max) + 40.0;
+    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 60.0);
+    let title = format!("Success vs decision correctness ({})", tiers_label(&lb.tiers));
+    svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    rate_axis_y(&mut svg, top, size, left, left + size);
+    for k in 0..=4 {
+        let v = f64::from(k) / 4.0;
+        let x = left + v * size;
+        svg.line(x, top, x, top + size, GRID, 1.0, None);
+        svg.text(x, top + size + 14.0, &format!("{v}"), 10.0, "middle", "");
+    }
+    svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
+    let (dx, dy) = (left + 0.62 * size + 8.0, top + size - 0.62 * size + 8.0);
+    svg.text(
+        dx,
+        dy,
+        "success = correctness",
+        10.0,
+        "middle",
+        &format!(" fill=\"#555\" transform=\"rotate(-45 {} {})\"", super::n(dx), super::n(dy)),
+    );
+    svg.text(left + size / 2.0, top + size + 32.0, "decision correctness", 11.0, "middle", "");
+    svg.text(
+        14.0,
+        top + size / 2.0,
+        "success",
+        11.0,
+        "middle",
+        &format!(" transform=\"rotate(-90 14 {})\"", top + size / 2.0),
+    );
+    let at = |dc: f64, s: f64| (left + dc.clamp(0.0, 1.0) * size, top + size - s.clamp(0.0, 1.0) * size);
+    // Reference policies, hollow.
+    for (policy, color) in [(CEILING, CEILING_COLOR), (FLOOR, FLOOR_COLOR)] {
+        for (k, s) in lb.scenarios.iter().enumerate() {
+            if let (Some(sr), Some(dc)) =
+                (input.refs.success(policy, *s, &lb.tiers), input.refs.correctness(policy, *s, &lb.tiers))
+            {
+                let (x, y) = at(dc, sr);
+                let tip = format!("{policy} on {s}: success {}, correctness {}", f2(sr), f2(dc));
+                svg.marker(k, x, y, 5.0, "none", color, Some(&tip));
+            }
+        }
+    }
+    for (i, r) in lb.rows.iter().enumerate() {
+        for (k, c) in r.scenarios.iter().enumerate() {
+            let Some(c) = c else { continue };
+            if !c.decision_correctness.is_finite() || !c.success.estimate.is_finite() {
+                continue;
+            }
+            let (x, y) = at(c.decision_correctness, c.success.estimate);
+            let tip = format!(
+                "{} on {}: success {}, correctness {}",
+                r.model,
+                c.scenario,
+                f2(c.success.estimate),
+                f2(c.decision_correctness)
+            );
+            svg.marker(k, x, y, 5.0, super::color(i), INK, Some(&tip));
+        }
+    }
+    // Legend: models (colour), scenarios (shape), references (hollow).
+    let lx = left + size + 24.0;
+    let mut y = top + 6.0;
+    for (i, m) in models.iter().enumerate() {
+        svg.rect(lx, y - 9.0, 12.0, 10.0, super::color(i), "");
+        svg.text(lx + 17.0, y, m, 11.0, "start", "");
+        y += 16.0;
+    }
+    y += 8.0;
+    for (k, s) in lb.scenarios.iter().enumerate() {
+        svg.marker(k, lx + 6.0, y - 4.0, 5.0, "#777", INK, None);
+        svg.text(lx + 17.0, y, &s.to_string(), 11.0, "start", "");
+        y += 16.0;
+    }
+    y += 8.0;
+    for (label, color) in [("expert (hollow)", CEILING_COLOR), ("always_proceed (hollow)", FLOOR_COLOR)] {
+        svg.circle(lx + 6.0, y - 4.0, 5.0, "none", color, None);
+        svg.text(lx + 17.0, y, label, 11.0, "start", "");
+        y += 16.0;
+    }
+    Plot {
+        name: "success_vs_correctness".into(),
+        title: title.clone(),
+        caption: "Each point is a model on a scenario: x its decision correctness, y its success. On the diagonal, right \
+                  calls become successes; below it, the model made the right call but failed the episode (typically \
+                  by stalling into a timeout); above it, it succeeded despite wrong calls (luck or a forgiving opponent)."
+            .into(),
+        svg: svg.finish(&title),
+    }
+}

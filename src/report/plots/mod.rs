@@ -1,0 +1,306 @@
+//! Self-contained SVG plots, written by hand: no plotting crate, no fonts,
+//! no external references (the standalone files carry only the SVG
+//! namespace; the copies inlined in report.html not even that). Every text
+//! is escaped.
+
+mod correctness;
+mod outcomes;
+mod radar;
+mod scenario_success;
+mod tier_ladder;
+mod trajectory;
+
+use super::drill::Loaded;
+use super::load::Dataset;
+use super::reference::References;
+use super::table::esc;
+use super::tables::{Leaderboard, OutcomeRow, TierRow};
+use serde::Serialize;
+use std::fmt::Write;
+
+pub use trajectory::chosen_episodes;
+
+/// One figure.
+#[derive(Debug, Clone, Serialize)]
+pub struct Plot {
+    /// File stem under `plots/`.
+    pub name: String,
+    pub title: String,
+    pub caption: String,
+    /// The `<svg>` element without a namespace (for inlining in HTML).
+    #[serde(skip)]
+    pub svg: String,
+}
+
+impl Plot {
+    /// The standalone file's text (with the SVG namespace).
+    pub fn file_text(&self) -> String {
+        format!("{}\n", self.svg.replacen("<svg ", "<svg xmlns=\"http://www.w3.org/2000/svg\" ", 1))
+    }
+}
+
+/// What the plots are drawn from.
+pub struct PlotInput<'a> {
+    pub leaderboard: &'a Leaderboard,
+    pub tiers: &'a [TierRow],
+    pub outcomes: &'a [OutcomeRow],
+    pub refs: &'a References,
+    pub data: &'a Dataset,
+    pub transcripts: &'a [Loaded],
+}
+
+impl PlotInput<'_> {
+    /// Model labels in leaderboard order (their colour is their position).
+    pub fn models(&self) -> Vec<&str> {
+        self.leaderboard.rows.iter().map(|r| r.model.as_str()).collect()
+    }
+
+    pub fn color_of(&self, model: &str) -> &'static str {
+        color(self.models().iter().position(|m| *m == model).unwrap_or(0))
+    }
+}
+
+pub fn all(input: &PlotInput) -> Vec<Plot> {
+    let mut plots = vec![scenario_success::by_scenario(input), scenario_success::ranked_mean(input)];
+    plots.push(correctness::plot(input));
+    plots.push(tier_ladder::plot(input));
+    plots.push(outcomes::plot(input));
+    plots.extend(radar::plot(input));
+    plots.extend(trajectory::plots(input));
+    plots
+}
+
+/// Ten distinguishable colours (Tableau 10), then repeated.
+const PALETTE: [&str; 10] =
+    ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"];
+
+pub fn color(i: usize) -> &'static str {
+    PALETTE[i % PALETTE.len()]
+}
+
+pub const CEILING_COLOR: &str = "#2e7d32";
+pub const FLOOR_COLOR: &str = "#8d5524";
+pub const SUCCESS_COLOR: &str = "#59a14f";
+pub const COLLISION_COLOR: &str = "#e15759";
+pub const TIMEOUT_COLOR: &str = "#9e9e9e";
+pub const GRID: &str = "#e3e3e3";
+pub const INK: &str = "#222";
+
+/// A number for an SVG attribute: one decimal, no "-0.0".
+pub fn n(x: f64) -> String {
+    let x = if x.is_finite() { (x * 10.0).round() / 10.0 } else { 0.0 };
+    if x == 0.0 { "0".into() } else { format!("{x}") }
+}
+
+/// Approximate width of a text in pixels at `size`.
+pub fn text_width(s: &str, size: f64) -> f64 {
+    s.chars().count() as f64 * size * 0.58
+}
+
+/// An SVG document being written.
+pub struct Svg {
+    w: f64,
+    h: f64,
+    body: String,
+}
+
+impl Svg {
+    pub fn new(w: f64, h: f64) -> Svg {
+        Svg { w, h, body: String::new() }
+    }
+
+    pub fn rect(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, extra: &str) {
+        let _ = write!(
+            self.body,
+            "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{fill}\"{extra}/>",
+            n(x),
+            n(y),
+            n(w.max(0.0)),
+            n(h.max(0.0))
+        );
+    }
+
+    /// A rectangle with a hover tooltip.
+    pub fn rect_tip(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, tip: &str) {
+        let _ = write!(
+            self.body,
+            "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{fill}\"",
+            n(x),
+            n(y),
+            n(w.max(0.0)),
+            n(h.max(0.0))
+        );
+        self.close_with_tip(Some(tip), "rect");
+    }
+
+    #[allow(clippy::too_many_arguments)] // the coordinates and style of one primitive
+    pub fn line(&mut self, x1: f64, y1: f64, x2: f64, y2: f64, stroke: &str, width: f64, dash: Option<&str>) {
+        let dash = dash.map_or(String::new(), |d| format!(" stroke-dasharray=\"{d}\""));
+        let _ = write!(
+            self.body,
+            "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{stroke}\" stroke-width=\"{}\"{dash}/>",
+            n(x1),
+            n(y1),
+            n(x2),
+            n(y2),
+            n(width)
+        );
+    }
+
+    /// A circle with an optional hover tooltip.
+    pub fn circle(&mut self, cx: f64, cy: f64, r: f64, fill: &str, stroke: &str, tip: Option<&str>) {
+        let _ = write!(
+            self.body,
+            "<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"{fill}\" stroke=\"{stroke}\"",
+            n(cx),
+            n(cy),
+            n(r)
+        );
+        self.close_with_tip(tip, "circle");
+    }
+
+    /// A marker: 0 circle, 1 square, 2 triangle, 3 diamond.
+    #[allow(clippy::too_many_arguments)] // the coordinates and style of one primitive
+    pub fn marker(&mut self, shape: usize, cx: f64, cy: f64, r: f64, fill: &str, stroke: &str, tip: Option<&str>) {
+        match shape % 4 {
+            0 => self.circle(cx, cy, r, fill, stroke, tip),
+            1 => {
+                let _ = write!(
+                    self.body,
+                    "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{fill}\" stroke=\"{stroke}\"",
+                    n(cx - r),
+                    n(cy - r),
+                    n(2.0 * r),
+                    n(2.0 * r)
+                );
+                self.close_with_tip(tip, "rect");
+            }
+            k => {
+                let pts: Vec<(f64, f64)> = if k == 2 {
+                    vec![(cx, cy - 1.2 * r), (cx + 1.1 * r, cy + 0.9 * r), (cx - 1.1 * r, cy + 0.9 * r)]
+                } else {
+                    vec![(cx, cy - 1.3 * r), (cx + 1.3 * r, cy), (cx, cy + 1.3 * r), (cx - 1.3 * r, cy)]
+                };
+                let _ = write!(self.body, "<polygon points=\"{}\" fill=\"{fill}\" stroke=\"{stroke}\"", points(&pts));
+                self.close_with_tip(tip, "polygon");
+            }
+        }
+    }
+
+    fn close_with_tip(&mut self, tip: Option<&str>, element: &str) {
+        match tip {
+            Some(t) => {
+                let _ = write!(self.body, "><title>{}</title></{element}>", esc(t));
+            }
+            None => self.body.push_str("/>"),
+        }
+    }
+
+    /// Text; `anchor` is start, middle or end; `extra` more attributes.
+    pub fn text(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, extra: &str) {
+        let fill = if extra.contains(" fill=") { String::new() } else { format!(" fill=\"{INK}\"") };
+        let _ = write!(
+            self.body,
+            "<text x=\"{}\" y=\"{}\" font-size=\"{}\" text-anchor=\"{anchor}\"{fill}{extra}>{}</text>",
+            n(x),
+            n(y),
+            n(size),
+            esc(s)
+        );
+    }
+
+    pub fn polyline(&mut self, pts: &[(f64, f64)], stroke: &str, width: f64, dash: Option<&str>) {
+        if pts.len() < 2 {
+            return;
+        }
+        let dash = dash.map_or(String::new(), |d| format!(" stroke-dasharray=\"{d}\""));
+        let _ = write!(
+            self.body,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{stroke}\" stroke-width=\"{}\" stroke-linejoin=\"round\"{dash}/>",
+            points(pts),
+            n(width)
+        );
+    }
+
+    pub fn polygon(&mut self, pts: &[(f64, f64)], fill: &str, fill_opacity: f64, stroke: &str, dash: Option<&str>) {
+        let dash = dash.map_or(String::new(), |d| format!(" stroke-dasharray=\"{d}\""));
+        let _ = write!(
+            self.body,
+            "<polygon points=\"{}\" fill=\"{fill}\" fill-opacity=\"{}\" stroke=\"{stroke}\" stroke-width=\"1.5\"{dash}/>",
+            points(pts),
+            fill_opacity
+        );
+    }
+
+    /// A horizontal legend entry: a swatch and a label; returns its width.
+    pub fn legend_item(&mut self, x: f64, y: f64, color: &str, label: &str, dashed: bool) -> f64 {
+        if dashed {
+            self.line(x, y - 4.0, x + 18.0, y - 4.0, color, 2.0, Some("5 3"));
+        } else {
+            self.rect(x, y - 9.0, 12.0, 10.0, color, "");
+        }
+        let lx = x + if dashed { 22.0 } else { 16.0 };
+        self.text(lx, y, label, 11.0, "start", "");
+        lx - x + text_width(label, 11.0) + 14.0
+    }
+
+    pub fn finish(self, title: &str) -> String {
+        format!(
+            "<svg viewBox=\"0 0 {w} {h}\" width=\"{w}\" height=\"{h}\" font-family=\"Helvetica, Arial, sans-serif\" role=\"img\"><title>{t}</title><rect width=\"{w}\" height=\"{h}\" fill=\"#ffffff\"/>{body}</svg>",
+            w = n(self.w),
+            h = n(self.h),
+            t = esc(title),
+            body = self.body
+        )
+    }
+}
+
+fn points(pts: &[(f64, f64)]) -> String {
+    pts.iter().map(|(x, y)| format!("{},{}", n(*x), n(*y))).collect::<Vec<_>>().join(" ")
+}
+
+/// Vertical grid lines and tick labels of a [0, 1] rate axis.
+pub fn rate_axis_x(svg: &mut Svg, x0: f64, width: f64, top: f64, bottom: f64) {
+    for k in 0..=4 {
+        let v = f64::from(k) / 4.0;
+        let x = x0 + v * width;
+        svg.line(x, top, x, bottom, GRID, 1.0, None);
+        svg.text(x, bottom + 13.0, &tick(v), 10.0, "middle", "");
+    }
+}
+
+/// Horizontal grid lines and tick labels of a [0, 1] rate axis.
+pub fn rate_axis_y(svg: &mut Svg, y0: f64, height: f64, left: f64, right: f64) {
+    for k in 0..=4 {
+        let v = f64::from(k) / 4.0;
+        let y = y0 + height - v * height;
+        svg.line(left, y, right, y, GRID, 1.0, None);
+        svg.text(left - 4.0, y + 3.5, &tick(v), 10.0, "end", "");
+    }
+}
+
+fn tick(v: f64) -> String {
+    match v {
+        0.0 => "0".into(),
+        1.0 => "1".into(),
+        v => format!("{v}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svg_text_is_escaped_and_numbers_compact() {
+        let mut s = Svg::new(10.0, 10.0);
+        s.text(1.0, 2.0, "<a&b>", 10.0, "start", "");
+        s.circle(1.0, 1.0, 2.0, "red", "none", Some("x<y"));
+        let out = s.finish("t\"q");
+        assert!(out.contains("&lt;a&amp;b&gt;") && out.contains("<title>x&lt;y</title>"));
+        assert!(out.contains("<title>t&quot;q</title>"));
+        assert!(!out.contains("http"));
+        assert_eq!((n(-0.01), n(2.25), n(3.0)), ("0".to_string(), "2.3".to_string(), "3".to_string()));
+        assert_eq!(tick(0.25), "0.25");
+    }
+}

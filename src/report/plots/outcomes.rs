@@ -1,0 +1,62 @@
+//! Outcome decomposition: stacked bars of success, collision and timeout
+//! per model, grouped by scenario.
+
+use super::{COLLISION_COLOR, Plot, PlotInput, SUCCESS_COLOR, Svg, TIMEOUT_COLOR, text_width};
+use crate::report::tables::tiers_label;
+use crate::scenario::ScenarioKind;
+
+pub fn plot(input: &PlotInput) -> Plot {
+    let models = input.models();
+    let scenarios: Vec<ScenarioKind> =
+        ScenarioKind::ALL.into_iter().filter(|s| input.outcomes.iter().any(|r| r.scenario == *s)).collect();
+    let label_w = models.iter().map(|m| text_width(m, 11.0)).fold(60.0, f64::max).min(240.0) + 14.0;
+    let (bar_w, row_h, head_h, top) = (420.0, 18.0, 24.0, 56.0);
+    let rows = scenarios.len() as f64 * (head_h + models.len() as f64 * row_h);
+    let mut svg = Svg::new(label_w + bar_w + 20.0, top + rows + 16.0);
+    let title = format!("Outcome decomposition ({})", tiers_label(&input.leaderboard.tiers));
+    svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    let mut lx = label_w;
+    for (c, l) in [(SUCCESS_COLOR, "success"), (COLLISION_COLOR, "collision"), (TIMEOUT_COLOR, "timeout")] {
+        lx += svg.legend_item(lx, 42.0, c, l, false);
+    }
+    let mut y = top;
+    for s in &scenarios {
+        svg.text(label_w, y + 16.0, &s.to_string(), 12.0, "start", " font-weight=\"bold\"");
+        y += head_h;
+        for m in &models {
+            if let Some(r) = input.outcomes.iter().find(|r| r.model == *m && r.scenario == *s) {
+                let mut x = label_w;
+                for (v, c, l) in [
+                    (r.success, SUCCESS_COLOR, "success"),
+                    (r.collision, COLLISION_COLOR, "collision"),
+                    (r.timeout, TIMEOUT_COLOR, "timeout"),
+                ] {
+                    let w = if v.is_finite() { v * bar_w } else { 0.0 };
+                    let tip = format!("{m} on {s}: {l} {:.0}% of {} episodes", v * 100.0, r.episodes);
+                    svg.rect_tip(x, y + 2.0, w, row_h - 4.0, c, &tip);
+                    if w >= 30.0 {
+                        svg.text(
+                            x + w / 2.0,
+                            y + row_h - 5.0,
+                            &format!("{:.0}%", v * 100.0),
+                            10.0,
+                            "middle",
+                            " fill=\"#fff\"",
+                        );
+                    }
+                    x += w;
+                }
+            }
+            svg.text(label_w - 8.0, y + row_h - 5.0, m, 11.0, "end", "");
+            y += row_h;
+        }
+    }
+    Plot {
+        name: "outcomes".into(),
+        title: title.clone(),
+        caption: "Share of episodes ending in success, collision and timeout. Timeouts are over-caution (stalling, \
+                  endless nudging); collisions are over-assertion."
+            .into(),
+        svg: svg.finish(&title),
+    }
+}

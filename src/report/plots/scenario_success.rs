@@ -1,0 +1,122 @@
+//! Dot-and-whisker panels: per-scenario success with 95% CI whiskers, and
+//! the ranked mean; the expert ceiling and the `always_proceed` floor are
+//! vertical dashed lines in every panel.
+
+use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_x, text_width};
+use crate::report::table::{f2, with_ci};
+use crate::report::tables::tiers_label;
+use crate::stats::Interval;
+
+struct Panel {
+    title: String,
+    ceiling: Option<f64>,
+    floor: Option<f64>,
+    /// One per model (leaderboard order).
+    values: Vec<Option<Interval>>,
+}
+
+fn dot_whisker(name: &str, title: &str, caption: String, models: &[&str], colors: &[&str], panels: &[Panel]) -> Plot {
+    let label_w = models.iter().map(|m| text_width(m, 11.0)).fold(60.0, f64::max).min(240.0) + 12.0;
+    let (pw, gap, row_h, top) = (230.0, 26.0, 22.0, 68.0);
+    let width = label_w + panels.len() as f64 * (pw + gap) + 10.0;
+    let height = top + models.len() as f64 * row_h + 40.0;
+    let mut svg = Svg::new(width, height);
+    svg.text(10.0, 18.0, title, 14.0, "start", " font-weight=\"bold\"");
+    let bottom = top + models.len() as f64 * row_h;
+    for (p, panel) in panels.iter().enumerate() {
+        let x0 = label_w + p as f64 * (pw + gap);
+        svg.rect(x0, top - 6.0, pw, bottom - top + 6.0, "#fafafa", "");
+        svg.text(x0 + pw / 2.0, 34.0, &panel.title, 12.0, "middle", " font-weight=\"bold\"");
+        rate_axis_x(&mut svg, x0, pw, top - 6.0, bottom);
+        for (value, color, label, dy) in
+            [(panel.ceiling, CEILING_COLOR, "expert", 47.0), (panel.floor, FLOOR_COLOR, "floor", 58.0)]
+        {
+            if let Some(v) = value {
+                let x = x0 + v.clamp(0.0, 1.0) * pw;
+                svg.line(x, top - 6.0, x, bottom, color, 1.6, Some("5 3"));
+                let anchor = if v > 0.85 {
+                    "end"
+                } else if v < 0.15 {
+                    "start"
+                } else {
+                    "middle"
+                };
+                svg.text(x, dy, &format!("{label} {}", f2(v)), 9.5, anchor, &format!(" fill=\"{color}\""));
+            }
+        }
+        for (i, v) in panel.values.iter().enumerate() {
+            let Some(v) = v else { continue };
+            let y = top + (i as f64 + 0.5) * row_h;
+            let x = |r: f64| x0 + r.clamp(0.0, 1.0) * pw;
+            if v.lo.is_finite() && v.hi.is_finite() {
+                svg.line(x(v.lo), y, x(v.hi), y, colors[i], 2.0, None);
+                svg.line(x(v.lo), y - 4.0, x(v.lo), y + 4.0, colors[i], 1.5, None);
+                svg.line(x(v.hi), y - 4.0, x(v.hi), y + 4.0, colors[i], 1.5, None);
+            }
+            let tip = format!("{}: {}", models[i], with_ci(v));
+            svg.circle(x(v.estimate), y, 4.5, colors[i], INK, Some(&tip));
+        }
+    }
+    for (i, m) in models.iter().enumerate() {
+        let y = top + (i as f64 + 0.5) * row_h + 4.0;
+        svg.text(label_w - 8.0, y, m, 11.0, "end", "");
+    }
+    svg.text(
+        label_w,
+        height - 6.0,
+        "success rate (dot: estimate; whisker: 95% percentile bootstrap CI)",
+        10.0,
+        "start",
+        "",
+    );
+    Plot { name: name.into(), title: title.into(), caption, svg: svg.finish(title) }
+}
+
+pub fn by_scenario(input: &PlotInput) -> Plot {
+    let lb = input.leaderboard;
+    let models = input.models();
+    let colors: Vec<&str> = (0..models.len()).map(super::color).collect();
+    let panels: Vec<Panel> = lb
+        .scenarios
+        .iter()
+        .enumerate()
+        .map(|(k, s)| Panel {
+            title: s.to_string(),
+            ceiling: lb.references.first().and_then(|r| r.scenarios[k]),
+            floor: lb.references.get(1).and_then(|r| r.scenarios[k]),
+            values: lb.rows.iter().map(|r| r.scenarios[k].as_ref().map(|c| c.success)).collect(),
+        })
+        .collect();
+    dot_whisker(
+        "success_by_scenario",
+        &format!("Success by scenario ({})", tiers_label(&lb.tiers)),
+        "Per-scenario success with 95% percentile bootstrap CI whiskers, models in leaderboard order; dashed lines: \
+         the expert ceiling and the always_proceed floor (reference levels from separate baseline runs)."
+            .into(),
+        &models,
+        &colors,
+        &panels,
+    )
+}
+
+pub fn ranked_mean(input: &PlotInput) -> Plot {
+    let lb = input.leaderboard;
+    let models = input.models();
+    let colors: Vec<&str> = (0..models.len()).map(super::color).collect();
+    let panel = Panel {
+        title: "average over scenarios".into(),
+        ceiling: lb.references.first().and_then(|r| r.average),
+        floor: lb.references.get(1).and_then(|r| r.average),
+        values: lb.rows.iter().map(|r| Some(r.average)).collect(),
+    };
+    dot_whisker(
+        "ranked_mean",
+        &format!("Ranked mean success ({})", tiers_label(&lb.tiers)),
+        "Average success over scenarios, best first; whiskers: clustered bootstrap 95% CI resampling seeds jointly \
+         across scenarios. Overlapping whiskers are not a ranking: see the paired comparisons."
+            .into(),
+        &models,
+        &colors,
+        &[panel],
+    )
+}

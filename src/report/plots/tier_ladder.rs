@@ -1,0 +1,86 @@
+//! The tier ladder: success per tier, one line per model, one panel per
+//! scenario, with the expert and `always_proceed` levels of each tier.
+
+use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_y, text_width};
+use crate::report::reference::{CEILING, FLOOR};
+use crate::report::table::with_ci;
+use crate::scenario::{ScenarioKind, Tier};
+
+pub fn plot(input: &PlotInput) -> Plot {
+    let models = input.models();
+    let scenarios: Vec<ScenarioKind> =
+        ScenarioKind::ALL.into_iter().filter(|s| input.tiers.iter().any(|r| r.scenario == *s)).collect();
+    let tiers: Vec<Tier> = Tier::ALL.into_iter().filter(|t| input.tiers.iter().any(|r| r.tier == *t)).collect();
+    let (left, top, pw, ph, gap) = (44.0, 46.0, 220.0, 220.0, 40.0);
+    let width = left + scenarios.len().max(1) as f64 * (pw + gap);
+    // Legend rows, wrapped as drawn below.
+    let mut legend_rows = 1.0;
+    let mut lx = 10.0;
+    for m in &models {
+        let w = text_width(m, 11.0) + 30.0;
+        if lx + w > width - 10.0 && lx > 10.0 {
+            legend_rows += 1.0;
+            lx = 10.0;
+        }
+        lx += w;
+    }
+    let height = top + ph + 52.0 + legend_rows * 18.0;
+    let mut svg = Svg::new(width, height);
+    let title = "Tier ladder: success by tier";
+    svg.text(10.0, 20.0, title, 14.0, "start", " font-weight=\"bold\"");
+    let xs = |x0: f64, t: Tier| {
+        let i = tiers.iter().position(|&u| u == t).unwrap_or(0) as f64;
+        let k = (tiers.len().max(2) - 1) as f64;
+        x0 + 20.0 + i * (pw - 40.0) / k
+    };
+    let y = |v: f64| top + ph - v.clamp(0.0, 1.0) * ph;
+    for (p, &s) in scenarios.iter().enumerate() {
+        let x0 = left + p as f64 * (pw + gap);
+        svg.rect(x0, top, pw, ph, "#fafafa", "");
+        rate_axis_y(&mut svg, top, ph, x0, x0 + pw);
+        svg.text(x0 + pw / 2.0, top - 8.0, &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
+        for &t in &tiers {
+            svg.text(xs(x0, t), top + ph + 15.0, &format!("tier {t}"), 10.0, "middle", "");
+        }
+        for (policy, color) in [(CEILING, CEILING_COLOR), (FLOOR, FLOOR_COLOR)] {
+            let pts: Vec<(f64, f64)> =
+                tiers.iter().filter_map(|&t| input.refs.success(policy, s, &[t]).map(|v| (xs(x0, t), y(v)))).collect();
+            svg.polyline(&pts, color, 1.5, Some("5 3"));
+            for &(px, py) in &pts {
+                svg.marker(2, px, py, 3.5, "none", color, Some(policy));
+            }
+        }
+        for (i, m) in models.iter().enumerate() {
+            let rows: Vec<_> = input.tiers.iter().filter(|r| r.model == *m && r.scenario == s).collect();
+            let pts: Vec<(f64, f64)> = rows.iter().map(|r| (xs(x0, r.tier), y(r.success.estimate))).collect();
+            svg.polyline(&pts, super::color(i), 2.0, None);
+            for (r, &(px, py)) in rows.iter().zip(&pts) {
+                let tip = format!("{m}, {s} tier {}: {}", r.tier, with_ci(&r.success));
+                svg.circle(px, py, 3.5, super::color(i), INK, Some(&tip));
+            }
+        }
+    }
+    // Legend.
+    let mut lx = 10.0;
+    let mut ly = top + ph + 40.0;
+    for (i, m) in models.iter().enumerate() {
+        if lx + text_width(m, 11.0) + 30.0 > width - 10.0 && lx > 10.0 {
+            lx = 10.0;
+            ly += 18.0;
+        }
+        lx += svg.legend_item(lx, ly, super::color(i), m, false);
+    }
+    ly += 18.0;
+    let mut lx = 10.0;
+    lx += svg.legend_item(lx, ly, CEILING_COLOR, "expert", true);
+    svg.legend_item(lx, ly, FLOOR_COLOR, "always_proceed", true);
+    Plot {
+        name: "tier_ladder".into(),
+        title: title.into(),
+        caption: "Success per tier (1 plain, 2 delayed reveal / delayed step-out / observation noise, 3 bluff / \
+                  pause-then-dart / merge bluff). A model that acts on the instantaneous cue falls at tier 3 where \
+                  one that waits for a committed signal holds; dashed: the reference policies on each tier."
+            .into(),
+        svg: svg.finish(title),
+    }
+}

@@ -1,0 +1,131 @@
+//! The expert ceiling and the `always_proceed` floor: read from the
+//! committed baseline table (`baselines.csv` in `--baselines DIR`, default
+//! `results/baselines`), or, when the default directory is absent, computed
+//! in-process with the built-in scenarios (n = 200 seeds from 0, the same
+//! protocol as `negotiator baselines`, about 30 ms).
+
+use super::ReportError;
+use crate::baselines::{GridSpec, run_grid};
+use crate::policy::PolicyKind;
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const CEILING: &str = "expert";
+pub const FLOOR: &str = "always_proceed";
+
+/// One baseline cell (normal-approximation intervals, as in the table).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceCell {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub policy: String,
+    pub n: usize,
+    pub success: f64,
+    pub success_lo: f64,
+    pub success_hi: f64,
+    pub decision_correctness: f64,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct References {
+    /// Where the cells came from.
+    pub source: String,
+    pub cells: Vec<ReferenceCell>,
+}
+
+impl References {
+    fn cell(&self, policy: &str, scenario: ScenarioKind, tier: Tier) -> Option<&ReferenceCell> {
+        self.cells.iter().find(|c| c.policy == policy && c.scenario == scenario && c.tier == tier)
+    }
+
+    /// Success of `policy` on `scenario`, averaged over `tiers` (every tier
+    /// must be in the table).
+    pub fn success(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
+        let xs: Option<Vec<f64>> = tiers.iter().map(|&t| self.cell(policy, scenario, t).map(|c| c.success)).collect();
+        let xs = xs?;
+        (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
+    }
+
+    /// Decision correctness of `policy`, averaged like [`Self::success`].
+    pub fn correctness(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
+        let xs: Option<Vec<f64>> =
+            tiers.iter().map(|&t| self.cell(policy, scenario, t).map(|c| c.decision_correctness)).collect();
+        let xs = xs?;
+        (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
+    }
+}
+
+/// Read `dir/baselines.csv`. `explicit`: the directory was given with
+/// `--baselines` (then its absence is an error; otherwise the references
+/// are computed in-process).
+pub fn load(dir: &Path, explicit: bool) -> Result<References, ReportError> {
+    let path = dir.join("baselines.csv");
+    let bad = |message: String| ReportError::Baselines { path: path.display().to_string(), message };
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && !explicit => return Ok(compute()),
+        Err(e) => return Err(bad(e.to_string())),
+    };
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    let mut cells = Vec::new();
+    for (i, row) in reader.deserialize::<ReferenceCell>().enumerate() {
+        let cell = row.map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
+        if [CEILING, FLOOR].contains(&cell.policy.as_str()) {
+            cells.push(cell);
+        }
+    }
+    if cells.is_empty() {
+        return Err(bad(format!("no '{CEILING}' or '{FLOOR}' rows")));
+    }
+    Ok(References { source: path.display().to_string(), cells })
+}
+
+/// The two reference policies on every scenario and tier, n = 200.
+pub fn compute() -> References {
+    let spec = GridSpec {
+        scenarios: ScenarioKind::ALL.to_vec(),
+        tiers: Tier::ALL.to_vec(),
+        policies: vec![PolicyKind::Expert, PolicyKind::AlwaysProceed],
+        episodes: 200,
+        seed_base: 0,
+    };
+    let cells = run_grid(&ScenarioSet::default(), &spec, &|_, _| {})
+        .into_iter()
+        .map(|c| ReferenceCell {
+            scenario: c.cell.scenario,
+            tier: c.cell.tier,
+            policy: c.cell.policy.to_string(),
+            n: c.n,
+            success: c.success.estimate,
+            success_lo: c.success.lo,
+            success_hi: c.success.hi,
+            decision_correctness: c.decision_correctness.estimate,
+        })
+        .collect();
+    References { source: "computed in-process (built-in scenarios, n = 200; no baselines.csv found)".into(), cells }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn committed_table_and_in_process_cover_every_cell() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/baselines");
+        let table = load(&dir, true).unwrap();
+        let computed = compute();
+        for refs in [&table, &computed] {
+            for policy in [CEILING, FLOOR] {
+                for s in ScenarioKind::ALL {
+                    let x = refs.success(policy, s, &Tier::ALL).unwrap();
+                    assert!((0.0..=1.0).contains(&x), "{policy} {s}: {x}");
+                }
+            }
+        }
+        assert_eq!(table.cells.len(), 18);
+        assert!(table.success("cue_follower", ScenarioKind::YieldStandoff, &[Tier::T1]).is_none());
+        assert!(load(Path::new("/nonexistent"), true).is_err());
+        assert!(load(Path::new("/nonexistent"), false).unwrap().source.contains("in-process"));
+    }
+}

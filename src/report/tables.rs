@@ -1,0 +1,627 @@
+//! The per-model tables: the leaderboard in the paper's form, the per-tier
+//! table, the outcome decomposition, and errors and cost.
+//!
+//! The resampling unit is a (scenario, tier, seed): its value is the
+//! success rate over its rollouts (0 or 1 with one rollout per seed), so
+//! rollouts of one seed are never treated as independent.
+
+use super::boot::{cell_seed, clustered_mean_of_means_ci, mean_ci, seed_for};
+use super::load::{Episode, ModelData, same_unit};
+use super::par::par_map;
+use super::reference::{CEILING, FLOOR, References};
+use super::table::{Table, f2, f4, with_ci};
+use crate::episode::Outcome;
+use crate::scenario::{ScenarioKind, Tier};
+use crate::stats::{Interval, mean, quantile};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// One (scenario, tier, seed) of a model: `episodes[start..end]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seed: u64,
+    pub start: usize,
+    pub end: usize,
+    pub successes: u32,
+}
+
+impl Unit {
+    pub fn rollouts(&self) -> u32 {
+        (self.end - self.start) as u32
+    }
+
+    /// Success rate over the seed's rollouts.
+    pub fn value(&self) -> f64 {
+        f64::from(self.successes) / f64::from(self.rollouts())
+    }
+
+    pub fn key(&self) -> (ScenarioKind, Tier, u64) {
+        (self.scenario, self.tier, self.seed)
+    }
+}
+
+/// The units of sorted episodes whose tier is in `tiers`, in key order.
+pub fn units(episodes: &[Episode], tiers: &[Tier]) -> Vec<Unit> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < episodes.len() {
+        let first = &episodes[i];
+        let end = i + episodes[i..].iter().take_while(|e| same_unit(e, first)).count();
+        if tiers.contains(&first.tier) {
+            let successes = episodes[i..end].iter().filter(|e| e.success()).count() as u32;
+            out.push(Unit { scenario: first.scenario, tier: first.tier, seed: first.seed, start: i, end, successes });
+        }
+        i = end;
+    }
+    out
+}
+
+pub fn tiers_label(tiers: &[Tier]) -> String {
+    match tiers {
+        [t] => format!("tier {t}"),
+        ts => format!("tiers {}", ts.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(", ")),
+    }
+}
+
+fn rate(episodes: &[&Episode], outcome: Outcome) -> f64 {
+    if episodes.is_empty() {
+        return f64::NAN;
+    }
+    episodes.iter().filter(|e| e.outcome == outcome).count() as f64 / episodes.len() as f64
+}
+
+fn mean_of(episodes: &[&Episode], f: impl Fn(&Episode) -> f64) -> f64 {
+    mean(&episodes.iter().map(|e| f(e)).collect::<Vec<_>>())
+}
+
+// ---------------------------------------------------------------------------
+// Leaderboard
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScenarioCell {
+    pub scenario: ScenarioKind,
+    /// Seeds (resampling units).
+    pub seeds: usize,
+    pub episodes: usize,
+    pub success: Interval,
+    pub decision_correctness: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LeaderRow {
+    pub model: String,
+    /// Mean of the scenario successes, clustered-bootstrap interval.
+    pub average: Interval,
+    /// One per [`Leaderboard::scenarios`]; `None` when the model has no
+    /// episode of that scenario in scope.
+    pub scenarios: Vec<Option<ScenarioCell>>,
+    /// Decision correctness on `yield_standoff`.
+    pub yield_dc: Option<f64>,
+    pub episodes: usize,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ReferenceRow {
+    pub label: String,
+    pub policy: String,
+    pub average: Option<f64>,
+    pub scenarios: Vec<Option<f64>>,
+    pub yield_dc: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Leaderboard {
+    pub tiers: Vec<Tier>,
+    pub scenarios: Vec<ScenarioKind>,
+    /// Sorted by average success, best first.
+    pub rows: Vec<LeaderRow>,
+    pub references: Vec<ReferenceRow>,
+    pub reference_source: String,
+}
+
+fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resamples: usize, base: u64) -> LeaderRow {
+    let us = units(&m.episodes, tiers);
+    let tiers_key = tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(",");
+    let mut cells = Vec::with_capacity(scenarios.len());
+    for &s in scenarios {
+        let su: Vec<&Unit> = us.iter().filter(|u| u.scenario == s).collect();
+        if su.is_empty() {
+            cells.push(None);
+            continue;
+        }
+        let values: Vec<f64> = su.iter().map(|u| u.value()).collect();
+        let seed = match tiers {
+            [t] => cell_seed(base, s, *t),
+            _ => seed_for(base, &format!("leaderboard/{s}/{tiers_key}")),
+        };
+        let eps: Vec<&Episode> = su.iter().flat_map(|u| &m.episodes[u.start..u.end]).collect();
+        cells.push(Some(ScenarioCell {
+            scenario: s,
+            seeds: su.len(),
+            episodes: eps.len(),
+            success: mean_ci(&values, resamples, seed),
+            decision_correctness: mean_of(&eps, |e| e.decision_correctness),
+        }));
+    }
+    // Clusters: seeds, jointly across scenarios (and tiers).
+    let mut clusters: BTreeMap<u64, Vec<(usize, f64)>> = BTreeMap::new();
+    for u in &us {
+        if let Some(g) = scenarios.iter().position(|&s| s == u.scenario) {
+            clusters.entry(u.seed).or_default().push((g, u.value()));
+        }
+    }
+    let clusters: Vec<Vec<(usize, f64)>> = clusters.into_values().collect();
+    let average = clustered_mean_of_means_ci(
+        &clusters,
+        scenarios.len(),
+        resamples,
+        seed_for(base, &format!("average/{tiers_key}")),
+    );
+    let yield_dc =
+        cells.iter().flatten().find(|c| c.scenario == ScenarioKind::YieldStandoff).map(|c| c.decision_correctness);
+    LeaderRow {
+        model: m.label.clone(),
+        average,
+        episodes: cells.iter().flatten().map(|c| c.episodes).sum(),
+        scenarios: cells,
+        yield_dc,
+    }
+}
+
+pub fn leaderboard(
+    models: &[ModelData],
+    refs: &References,
+    tiers: &[Tier],
+    resamples: usize,
+    base: u64,
+) -> Leaderboard {
+    let scenarios: Vec<ScenarioKind> = ScenarioKind::ALL
+        .into_iter()
+        .filter(|&s| models.iter().any(|m| m.episodes.iter().any(|e| e.scenario == s && tiers.contains(&e.tier))))
+        .collect();
+    let mut rows = par_map(models, |m| leader_row(m, &scenarios, tiers, resamples, base));
+    rows.sort_by(|a, b| {
+        let key = |r: &LeaderRow| if r.average.estimate.is_finite() { r.average.estimate } else { f64::NEG_INFINITY };
+        key(b).total_cmp(&key(a)).then_with(|| a.model.cmp(&b.model))
+    });
+    let references = [(CEILING, "expert reference"), (FLOOR, "always_proceed floor")]
+        .into_iter()
+        .map(|(policy, label)| {
+            let per: Vec<Option<f64>> = scenarios.iter().map(|&s| refs.success(policy, s, tiers)).collect();
+            let known: Vec<f64> = per.iter().flatten().copied().collect();
+            ReferenceRow {
+                label: label.to_string(),
+                policy: policy.to_string(),
+                average: (known.len() == per.len() && !known.is_empty()).then(|| mean(&known)),
+                scenarios: per,
+                yield_dc: scenarios
+                    .contains(&ScenarioKind::YieldStandoff)
+                    .then(|| refs.correctness(policy, ScenarioKind::YieldStandoff, tiers))
+                    .flatten(),
+            }
+        })
+        .collect();
+    Leaderboard { tiers: tiers.to_vec(), scenarios, rows, references, reference_source: refs.source.clone() }
+}
+
+fn opt2(x: Option<f64>) -> String {
+    x.map_or("-".into(), f2)
+}
+
+fn opt4(x: Option<f64>) -> String {
+    x.map_or(String::new(), f4)
+}
+
+impl Leaderboard {
+    pub fn title(&self) -> String {
+        format!("Success rates ({}; 95% percentile bootstrap CIs)", tiers_label(&self.tiers))
+    }
+
+    pub fn table(&self, resamples: usize) -> Table {
+        let mut headers: Vec<String> = vec!["model".into(), "avg. [95% CI]".into()];
+        headers.extend(self.scenarios.iter().map(|s| format!("{s} [95% CI]")));
+        headers.extend(["yield DC".to_string(), "episodes".to_string()]);
+        let mut t = Table { name: "leaderboard".into(), title: self.title(), headers, ..Table::default() };
+        for r in &self.rows {
+            let mut row = vec![r.model.clone(), with_ci(&r.average)];
+            row.extend(r.scenarios.iter().map(|c| c.as_ref().map_or("-".into(), |c| with_ci(&c.success))));
+            row.push(opt2(r.yield_dc));
+            row.push(r.episodes.to_string());
+            t.push(row);
+        }
+        for r in &self.references {
+            let mut row = vec![r.label.clone(), opt2(r.average)];
+            row.extend(r.scenarios.iter().map(|x| opt2(*x)));
+            row.push(opt2(r.yield_dc));
+            row.push(String::new());
+            t.push(row);
+        }
+        t.note(format!(
+            "Per-scenario CIs resample seeds ({resamples} resamples); the average's CI resamples seeds jointly across \
+             scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: {}.",
+            self.reference_source
+        ));
+        if self.rows.iter().any(|r| r.scenarios.iter().any(Option::is_none)) {
+            t.note(
+                "'-': the model has no episode of that scenario in scope; its average is over the scenarios it has.",
+            );
+        }
+        t
+    }
+
+    pub fn csv(&self) -> Table {
+        let mut headers: Vec<String> =
+            ["model", "kind", "avg", "avg_lo", "avg_hi"].iter().map(|s| s.to_string()).collect();
+        for s in &self.scenarios {
+            headers.extend([format!("{s}"), format!("{s}_lo"), format!("{s}_hi"), format!("{s}_n")]);
+        }
+        headers.extend(["yield_dc".to_string(), "episodes".to_string(), "tiers".to_string()]);
+        let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
+        let mut t = Table { name: "leaderboard".into(), title: self.title(), headers, ..Table::default() };
+        for r in &self.rows {
+            let mut row =
+                vec![r.model.clone(), "model".into(), f4(r.average.estimate), f4(r.average.lo), f4(r.average.hi)];
+            for c in &r.scenarios {
+                match c {
+                    Some(c) => {
+                        row.extend([f4(c.success.estimate), f4(c.success.lo), f4(c.success.hi), c.seeds.to_string()])
+                    }
+                    None => row.extend([String::new(), String::new(), String::new(), "0".into()]),
+                }
+            }
+            row.extend([opt4(r.yield_dc), r.episodes.to_string(), tiers.clone()]);
+            t.push(row);
+        }
+        for r in &self.references {
+            let mut row = vec![r.label.clone(), "reference".into(), opt4(r.average), String::new(), String::new()];
+            for x in &r.scenarios {
+                row.extend([opt4(*x), String::new(), String::new(), String::new()]);
+            }
+            row.extend([opt4(r.yield_dc), String::new(), tiers.clone()]);
+            t.push(row);
+        }
+        t
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Per tier
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TierRow {
+    pub model: String,
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub seeds: usize,
+    pub episodes: usize,
+    pub success: Interval,
+    pub collision: f64,
+    pub timeout: f64,
+    pub reward: f64,
+    pub decision_correctness: f64,
+    pub expert: Option<f64>,
+    pub floor: Option<f64>,
+}
+
+/// Every (model, scenario, tier) with episodes, models in `order`.
+pub fn tier_rows(models: &[&ModelData], refs: &References, resamples: usize, base: u64) -> Vec<TierRow> {
+    let cells: Vec<(&ModelData, ScenarioKind, Tier)> = models
+        .iter()
+        .flat_map(|m| ScenarioKind::ALL.into_iter().flat_map(move |s| Tier::ALL.into_iter().map(move |t| (*m, s, t))))
+        .filter(|(m, s, t)| m.episodes.iter().any(|e| e.scenario == *s && e.tier == *t))
+        .collect();
+    par_map(&cells, |&(m, s, t)| {
+        let us: Vec<Unit> = units(&m.episodes, &[t]).into_iter().filter(|u| u.scenario == s).collect();
+        let eps: Vec<&Episode> = us.iter().flat_map(|u| &m.episodes[u.start..u.end]).collect();
+        let values: Vec<f64> = us.iter().map(Unit::value).collect();
+        TierRow {
+            model: m.label.clone(),
+            scenario: s,
+            tier: t,
+            seeds: us.len(),
+            episodes: eps.len(),
+            success: mean_ci(&values, resamples, cell_seed(base, s, t)),
+            collision: rate(&eps, Outcome::Collision),
+            timeout: rate(&eps, Outcome::Timeout),
+            reward: mean_of(&eps, |e| e.reward),
+            decision_correctness: mean_of(&eps, |e| e.decision_correctness),
+            expert: refs.success(CEILING, s, &[t]),
+            floor: refs.success(FLOOR, s, &[t]),
+        }
+    })
+}
+
+pub fn tier_table(rows: &[TierRow]) -> Table {
+    let mut t = Table::new(
+        "tiers",
+        "Per tier: success with 95% CI, outcome rates, reward and decision correctness",
+        &[
+            "model",
+            "scenario",
+            "tier",
+            "n",
+            "success [95% CI]",
+            "collision",
+            "timeout",
+            "reward",
+            "DC",
+            "expert",
+            "floor",
+        ],
+    );
+    for r in rows {
+        t.push(vec![
+            r.model.clone(),
+            r.scenario.to_string(),
+            r.tier.to_string(),
+            r.episodes.to_string(),
+            with_ci(&r.success),
+            f2(r.collision),
+            f2(r.timeout),
+            f2(r.reward),
+            f2(r.decision_correctness),
+            opt2(r.expert),
+            opt2(r.floor),
+        ]);
+    }
+    t.note("n: episodes. DC: decision correctness. expert / floor: the reference policies' success on the same cell.");
+    t
+}
+
+pub fn tier_csv(rows: &[TierRow]) -> Table {
+    let mut t = Table::new(
+        "tiers",
+        "Per tier",
+        &[
+            "model",
+            "scenario",
+            "tier",
+            "seeds",
+            "episodes",
+            "success",
+            "success_lo",
+            "success_hi",
+            "collision",
+            "timeout",
+            "reward",
+            "decision_correctness",
+            "expert",
+            "always_proceed",
+        ],
+    );
+    for r in rows {
+        t.push(vec![
+            r.model.clone(),
+            r.scenario.to_string(),
+            r.tier.to_string(),
+            r.seeds.to_string(),
+            r.episodes.to_string(),
+            f4(r.success.estimate),
+            f4(r.success.lo),
+            f4(r.success.hi),
+            f4(r.collision),
+            f4(r.timeout),
+            f4(r.reward),
+            f4(r.decision_correctness),
+            opt4(r.expert),
+            opt4(r.floor),
+        ]);
+    }
+    t
+}
+
+// ---------------------------------------------------------------------------
+// Outcome decomposition
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OutcomeRow {
+    pub model: String,
+    pub scenario: ScenarioKind,
+    pub episodes: usize,
+    pub success: f64,
+    pub collision: f64,
+    pub timeout: f64,
+    pub decision_correctness: f64,
+    pub reward: f64,
+}
+
+pub fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<OutcomeRow> {
+    let mut out = Vec::new();
+    for m in models {
+        for s in ScenarioKind::ALL {
+            let eps: Vec<&Episode> = m.episodes.iter().filter(|e| e.scenario == s && tiers.contains(&e.tier)).collect();
+            if eps.is_empty() {
+                continue;
+            }
+            out.push(OutcomeRow {
+                model: m.label.clone(),
+                scenario: s,
+                episodes: eps.len(),
+                success: rate(&eps, Outcome::Success),
+                collision: rate(&eps, Outcome::Collision),
+                timeout: rate(&eps, Outcome::Timeout),
+                decision_correctness: mean_of(&eps, |e| e.decision_correctness),
+                reward: mean_of(&eps, |e| e.reward),
+            });
+        }
+    }
+    out
+}
+
+pub fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier], csv: bool) -> Table {
+    let title = format!("Outcome decomposition ({})", tiers_label(tiers));
+    let headers: &[&str] = if csv {
+        &["model", "scenario", "episodes", "success", "collision", "timeout", "decision_correctness", "reward"]
+    } else {
+        &["model", "scenario", "n", "success", "collision", "timeout", "DC", "DC - success", "reward"]
+    };
+    let mut t = Table::new("outcomes", title, headers);
+    for r in rows {
+        let mut row = vec![r.model.clone(), r.scenario.to_string(), r.episodes.to_string()];
+        if csv {
+            row.extend([r.success, r.collision, r.timeout, r.decision_correctness, r.reward].map(f4));
+        } else {
+            row.extend([r.success, r.collision, r.timeout, r.decision_correctness].map(f2));
+            row.push(format!("{:+.2}", r.decision_correctness - r.success));
+            row.push(f2(r.reward));
+        }
+        t.push(row);
+    }
+    if !csv {
+        t.note(
+            "DC - success > 0: right calls that did not become successes (typically over-caution ending in a timeout).",
+        );
+    }
+    t
+}
+
+// ---------------------------------------------------------------------------
+// Errors and cost
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CostRow {
+    pub model: String,
+    pub runs: usize,
+    pub episodes: usize,
+    pub turns: u64,
+    pub parse_error_turns: u64,
+    pub parse_error_rate: f64,
+    pub episodes_with_parse_errors: usize,
+    /// Rollouts given up as infrastructure errors and never finished.
+    pub infra_errors: usize,
+    /// Episodes of the runs' selections not finished (infrastructure
+    /// errors included); `None` without run.json.
+    pub missing: Option<usize>,
+    pub retries: u64,
+    pub tokens_per_episode: f64,
+    pub prompt_tokens_per_episode: f64,
+    pub completion_tokens_per_episode: f64,
+    pub latency_s_per_episode: f64,
+    pub latency_s_per_episode_p95: f64,
+    pub latency_ms_per_turn: f64,
+}
+
+pub fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
+    models
+        .iter()
+        .map(|m| {
+            let eps = &m.episodes;
+            let turns: u64 = eps.iter().map(|e| u64::from(e.turns_taken)).sum();
+            let bad: u64 = eps.iter().map(|e| u64::from(e.parse_error_turns)).sum();
+            let per_ep = |f: &dyn Fn(&Episode) -> f64| mean(&eps.iter().map(f).collect::<Vec<_>>());
+            let mut lat: Vec<f64> = eps.iter().map(|e| e.latency_ms as f64 / 1000.0).collect();
+            lat.sort_unstable_by(f64::total_cmp);
+            let latency_total: u64 = eps.iter().map(|e| e.latency_ms).sum();
+            CostRow {
+                model: m.label.clone(),
+                runs: m.runs.len(),
+                episodes: eps.len(),
+                turns,
+                parse_error_turns: bad,
+                parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
+                episodes_with_parse_errors: eps.iter().filter(|e| e.parse_error_turns > 0).count(),
+                infra_errors: m.infra_unresolved,
+                missing: m.missing,
+                retries: eps.iter().map(|e| u64::from(e.retries)).sum(),
+                tokens_per_episode: per_ep(&|e| e.tokens as f64),
+                prompt_tokens_per_episode: per_ep(&|e| e.prompt_tokens as f64),
+                completion_tokens_per_episode: per_ep(&|e| e.completion_tokens as f64),
+                latency_s_per_episode: per_ep(&|e| e.latency_ms as f64 / 1000.0),
+                latency_s_per_episode_p95: quantile(&lat, 0.95),
+                latency_ms_per_turn: if turns == 0 { f64::NAN } else { latency_total as f64 / turns as f64 },
+            }
+        })
+        .collect()
+}
+
+fn int(x: f64) -> String {
+    if x.is_finite() { format!("{x:.0}") } else { "-".into() }
+}
+
+pub fn cost_table(rows: &[CostRow]) -> Table {
+    let mut t = Table::new(
+        "errors_cost",
+        "Errors, tokens and latency (all episodes)",
+        &[
+            "model",
+            "episodes",
+            "parse-error turns",
+            "episodes with parse errors",
+            "infra errors",
+            "missing",
+            "retries",
+            "tokens/ep",
+            "completion tokens/ep",
+            "latency s/ep (p95)",
+            "ms/turn",
+        ],
+    );
+    for r in rows {
+        t.push(vec![
+            r.model.clone(),
+            r.episodes.to_string(),
+            format!("{} ({:.1}%)", r.parse_error_turns, 100.0 * if r.turns == 0 { 0.0 } else { r.parse_error_rate }),
+            r.episodes_with_parse_errors.to_string(),
+            r.infra_errors.to_string(),
+            r.missing.map_or("?".into(), |m| m.to_string()),
+            r.retries.to_string(),
+            int(r.tokens_per_episode),
+            int(r.completion_tokens_per_episode),
+            format!("{} ({})", f2(r.latency_s_per_episode), f2(r.latency_s_per_episode_p95)),
+            int(r.latency_ms_per_turn),
+        ]);
+    }
+    t.note(
+        "Parse errors are bad driving (the turn executed the conservative stop) and count in every score. Infra errors \
+         (errors.jsonl) and missing episodes are excluded from every score; re-running the eval command resumes them.",
+    );
+    t
+}
+
+pub fn cost_csv(rows: &[CostRow]) -> Table {
+    let mut t = Table::new(
+        "errors_cost",
+        "Errors, tokens and latency",
+        &[
+            "model",
+            "runs",
+            "episodes",
+            "turns",
+            "parse_error_turns",
+            "parse_error_rate",
+            "episodes_with_parse_errors",
+            "infra_errors",
+            "missing",
+            "retries",
+            "tokens_per_episode",
+            "prompt_tokens_per_episode",
+            "completion_tokens_per_episode",
+            "latency_s_per_episode",
+            "latency_s_per_episode_p95",
+            "latency_ms_per_turn",
+        ],
+    );
+    for r in rows {
+        t.push(vec![
+            r.model.clone(),
+            r.runs.to_string(),
+            r.episodes.to_string(),
+            r.turns.to_string(),
+            r.parse_error_turns.to_string(),
+            f4(r.parse_error_rate),
+            r.episodes_with_parse_errors.to_string(),
+            r.infra_errors.to_string(),
+            r.missing.map_or(String::new(), |m| m.to_string()),
+            r.retries.to_string(),
+            f4(r.tokens_per_episode),
+            f4(r.prompt_tokens_per_episode),
+            f4(r.completion_tokens_per_episode),
+            f4(r.latency_s_per_episode),
+            f4(r.latency_s_per_episode_p95),
+            f4(r.latency_ms_per_turn),
+        ]);
+    }
+    t
+}

@@ -1,0 +1,528 @@
+//! `negotiator report`: the report's own logic on constructed runs (merge,
+//! duplicate episodes, shards, pass^k exclusion, paired comparison, a
+//! leaderboard snapshot), then end to end on small runs made with `serve`
+//! and `eval`, including the offline HTML rendered by headless Chromium.
+
+use crate::serve::{Server, negotiator, scratch};
+use negotiator::episode::Outcome;
+use negotiator::eval::config::{HistoryWindow, RunConfig};
+use negotiator::eval::record::RolloutRecord;
+use negotiator::eval::store::{Invocation, RunInfo, Totals, write_run_info};
+use negotiator::report::reference::{ReferenceCell, References};
+use negotiator::report::{self, ReportError, ReportOptions, load};
+use negotiator::scenario::{ScenarioKind, Tier};
+use negotiator::stats::mcnemar_exact;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+// ---------------------------------------------------------------------------
+// Constructed runs
+
+/// One episode line as `eval` writes it (full record, two turns).
+fn line(model: &str, hash: &str, s: ScenarioKind, tier: u8, seed: u64, rollout: u32, outcome: Outcome) -> String {
+    let success = outcome == Outcome::Success;
+    let turn = |t: u32| {
+        json!({"turn": t, "scene": format!("Scenario: {s}\nTime: {}\n", f64::from(t - 1) * 0.5),
+               "reply": "{\"maneuver\":\"proceed\"}", "finish_reason": "stop",
+               "action": {"maneuver": "proceed", "acceleration": 1.0, "steering": 0.0},
+               "parse_errors": [], "usage": null, "tokens": 100, "latency_ms": 20, "attempts": 1,
+               "after_resolution": false})
+    };
+    let v = json!({
+        "model": model, "config_hash": hash, "scenario": s, "tier": tier, "seed": seed, "rollout": rollout,
+        "disposition": s.dispositions()[(seed % 2) as usize], "outcome": outcome,
+        "reward": if success { 0.9 } else { -1.0 }, "decision_correctness": if seed.is_multiple_of(3) { 0.5 } else { 1.0 },
+        "diagnostics": {"min_ttc_s": null, "min_gap_m": 1.0, "hard_brakes": 0, "right_of_way_violations": 0,
+            "time_to_goal_s": null, "free_flow_time_s": 5.0, "efficiency": 0.0, "progress": 0.5,
+            "peak_accel_mps2": 3.0, "peak_decel_mps2": 0.0, "peak_jerk_mps3": 0.0, "comfort": 1.0,
+            "decisions": 2, "duration_s": 1.0},
+        "turns_taken": 2, "parse_error_turns": 0, "tokens": 200, "prompt_tokens": 180, "completion_tokens": 20,
+        "latency_ms": 40, "retries": 0, "wall_ms": 50, "finished_at": "2026-01-01T00:00:00Z",
+        "turns": [turn(1), turn(2)],
+        "trajectory": [{"time_s": 0.0, "agents": [{"x": 0.0, "y": -40.0, "v": 10.0}, {"x": -40.0, "y": 0.0, "v": 10.0}]},
+                       {"time_s": 0.5, "agents": [{"x": 0.0, "y": -35.0, "v": 10.0}, {"x": -35.0, "y": 0.0, "v": 9.0}]}]
+    });
+    // The line is a real record.
+    serde_json::from_value::<RolloutRecord>(v.clone()).expect("a complete record");
+    format!("{v}\n")
+}
+
+/// A run directory: run.json (config for `model`, selection) and lines.
+struct RunSpec<'a> {
+    model: &'a str,
+    temperature: Option<f64>,
+    seeds: u64,
+    rollouts: u32,
+    shard: &'a str,
+    scenarios: &'a [ScenarioKind],
+}
+
+fn config(model: &str, temperature: Option<f64>) -> RunConfig {
+    let mut params = serde_json::Map::new();
+    if let Some(t) = temperature {
+        params.insert("temperature".into(), json!(t));
+    }
+    RunConfig {
+        model: model.into(),
+        request_params: params,
+        history: HistoryWindow::Full,
+        prompt_hash: "p".into(),
+        scenarios_hash: "s".into(),
+    }
+}
+
+fn write_run(dir: &Path, spec: &RunSpec, lines: &[String]) {
+    std::fs::create_dir_all(dir).unwrap();
+    let cfg = config(spec.model, spec.temperature);
+    let info = RunInfo {
+        run_name: dir.file_name().unwrap().to_string_lossy().into(),
+        config_hash: cfg.hash(),
+        config: cfg,
+        crate_version: "0".into(),
+        git_revision: "unknown".into(),
+        started_at: "t".into(),
+        ended_at: None,
+        invocations: 1,
+        last_invocation: Invocation {
+            started_at: "t".into(),
+            ended_at: None,
+            status: "finished".into(),
+            selection: json!({"base_seed": 0, "rollouts": spec.rollouts, "scenarios": spec.scenarios,
+                              "seeds": spec.seeds, "shard": spec.shard, "tiers": [1]}),
+            endpoint: Value::Null,
+            settings: Value::Null,
+            episodes: lines.len() as u64,
+            infra_errors: 0,
+            retries: 0,
+            tokens: 0,
+            turns: 0,
+            wall_s: 0.0,
+        },
+        totals: Totals::default(),
+    };
+    write_run_info(dir, &info).unwrap();
+    std::fs::write(dir.join("rollouts.jsonl"), lines.concat()).unwrap();
+}
+
+fn hash(model: &str, temperature: Option<f64>) -> String {
+    config(model, temperature).hash()
+}
+
+fn spec(model: &str) -> RunSpec<'_> {
+    RunSpec {
+        model,
+        temperature: None,
+        seeds: 10,
+        rollouts: 1,
+        shard: "1/1",
+        scenarios: &[ScenarioKind::YieldStandoff],
+    }
+}
+
+fn load_dirs(dirs: &[PathBuf]) -> Result<load::Dataset, ReportError> {
+    load::load(&load::resolve_dirs(dirs)?)
+}
+
+fn refs() -> References {
+    let cell = |s: ScenarioKind, policy: &str, success: f64| ReferenceCell {
+        scenario: s,
+        tier: Tier::T1,
+        policy: policy.into(),
+        n: 200,
+        success,
+        success_lo: success,
+        success_hi: success,
+        decision_correctness: success,
+    };
+    References {
+        source: "test references".into(),
+        cells: ScenarioKind::ALL
+            .into_iter()
+            .flat_map(|s| [cell(s, "expert", 1.0), cell(s, "always_proceed", 0.5)])
+            .collect(),
+    }
+}
+
+fn opts() -> ReportOptions {
+    ReportOptions { transcripts_per_cell: 2, ..ReportOptions::default() }
+}
+
+#[test]
+fn the_same_episode_twice_is_an_error_naming_it() {
+    let root = scratch("report-dup");
+    let h = hash("m", None);
+    let ys = ScenarioKind::YieldStandoff;
+    let a: Vec<String> = (0..5).map(|s| line("m", &h, ys, 1, s, 0, Outcome::Success)).collect();
+    let b: Vec<String> = (4..8).map(|s| line("m", &h, ys, 1, s, 0, Outcome::Success)).collect();
+    write_run(&root.join("a"), &spec("m"), &a);
+    write_run(&root.join("b"), &spec("m"), &b);
+    let err = load_dirs(&[root.join("a"), root.join("b")]).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, ReportError::DuplicateEpisode { .. }), "{msg}");
+    assert!(msg.contains("yield_standoff tier 1 seed 4 rollout 0") && msg.contains("model 'm'"), "{msg}");
+    assert!(msg.contains("a/rollouts.jsonl line 5") && msg.contains("b/rollouts.jsonl line 1"), "{msg}");
+    // Within one file too.
+    let mut twice = a.clone();
+    twice.push(a[2].clone());
+    write_run(&root.join("c"), &spec("m"), &twice);
+    let msg = load_dirs(&[root.join("c")]).unwrap_err().to_string();
+    assert!(msg.contains("seed 2 rollout 0") && msg.contains("line 3") && msg.contains("line 6"), "{msg}");
+    // The CLI: one line, exit 2.
+    let out = negotiator()
+        .args(["report", "-q", "--out"])
+        .arg(root.join("out"))
+        .arg(root.join("a"))
+        .arg(root.join("b"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("duplicate episode (yield_standoff tier 1 seed 4 rollout 0)"), "{stderr}");
+    // The same directory twice.
+    let msg = load_dirs(&[root.join("a"), root.join("a")]).unwrap_err().to_string();
+    assert!(msg.contains("given twice"), "{msg}");
+}
+
+#[test]
+fn shards_of_one_config_are_joined_and_other_configs_kept_apart() {
+    let root = scratch("report-shards");
+    let h = hash("m", None);
+    let ys = ScenarioKind::YieldStandoff;
+    let shard = |k: u64| -> Vec<String> {
+        (0..10).filter(|s| s % 2 == k).map(|s| line("m", &h, ys, 1, s, 0, Outcome::Success)).collect()
+    };
+    write_run(&root.join("s1"), &RunSpec { shard: "1/2", ..spec("m") }, &shard(0));
+    // Shard 2 lost seed 9 (e.g. an infrastructure error).
+    let mut second = shard(1);
+    second.pop();
+    write_run(&root.join("s2"), &RunSpec { shard: "2/2", ..spec("m") }, &second);
+    let h7 = hash("m", Some(0.7));
+    let warm: Vec<String> = (0..10).map(|s| line("m", &h7, ys, 1, s, 0, Outcome::Collision)).collect();
+    write_run(&root.join("warm"), &RunSpec { temperature: Some(0.7), ..spec("m") }, &warm);
+    // A directory of run directories expands to them.
+    let data = load_dirs(std::slice::from_ref(&root)).unwrap();
+    assert_eq!(data.runs.len(), 3);
+    assert_eq!(data.models.len(), 2);
+    let joined = data.models.iter().find(|m| m.config_hash == h).unwrap();
+    assert_eq!(joined.runs.len(), 2);
+    assert_eq!(joined.episodes.len(), 9);
+    assert_eq!(joined.missing, Some(1));
+    assert!(joined.episodes.windows(2).all(|w| w[0].key() < w[1].key()));
+    // Two configurations of one model id are told apart by their hash.
+    let labels: Vec<&str> = data.models.iter().map(|m| m.label.as_str()).collect();
+    assert!(labels.contains(&format!("m ({})", &h[..8]).as_str()), "{labels:?}");
+    assert!(labels.contains(&format!("m ({})", &h7[..8]).as_str()), "{labels:?}");
+    let built = report::build_from(data, refs(), &opts()).unwrap();
+    let costs = &built.report.costs;
+    assert_eq!(costs.iter().map(|c| c.missing).collect::<Vec<_>>(), vec![Some(1), Some(0)]);
+}
+
+#[test]
+fn pass_k_counts_only_seeds_with_every_rollout() {
+    let root = scratch("report-passk");
+    let h = hash("m", None);
+    let ys = ScenarioKind::YieldStandoff;
+    let (s, f) = (Outcome::Success, Outcome::Timeout);
+    let lines = vec![
+        // seed 0: 2 of 3; seed 1: 3 of 3; seed 2: 1 of 3; seed 3: only 2 rollouts (excluded).
+        line("m", &h, ys, 1, 0, 0, s),
+        line("m", &h, ys, 1, 0, 1, f),
+        line("m", &h, ys, 1, 0, 2, s),
+        line("m", &h, ys, 1, 1, 0, s),
+        line("m", &h, ys, 1, 1, 1, s),
+        line("m", &h, ys, 1, 1, 2, s),
+        line("m", &h, ys, 1, 2, 0, f),
+        line("m", &h, ys, 1, 2, 1, f),
+        line("m", &h, ys, 1, 2, 2, s),
+        line("m", &h, ys, 1, 3, 0, s),
+        line("m", &h, ys, 1, 3, 2, s),
+    ];
+    write_run(&root.join("r3"), &RunSpec { seeds: 4, rollouts: 3, ..spec("m") }, &lines);
+    let data = load_dirs(&[root.join("r3")]).unwrap();
+    assert_eq!((data.models[0].rollouts, data.models[0].missing), (3, Some(1)));
+    let built = report::build_from(data, refs(), &opts()).unwrap();
+    let rows = &built.report.pass_k;
+    let all = rows.iter().find(|r| r.scope == "all").unwrap();
+    assert_eq!((all.r, all.seeds, all.excluded), (3, 3, 1));
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    // pass^1 = mean(2/3, 1, 1/3); pass^2 = mean(1/3, 1, 0); pass^3 = mean(0, 1, 0).
+    assert!(close(all.pass[0], 2.0 / 3.0) && close(all.pass[1], 4.0 / 9.0) && close(all.pass[2], 1.0 / 3.0), "{all:?}");
+    let table = built.report.display_tables().into_iter().find(|t| t.name == "pass_k").unwrap().text();
+    assert!(table.contains("seeds excluded") && table.contains("m      all             3  3           1"), "{table}");
+    // The leaderboard's unit is the seed: success = mean over seeds of the rollout rates.
+    let lb = &built.report.leaderboard.rows[0];
+    let expected = (2.0 / 3.0 + 1.0 + 1.0 / 3.0 + 1.0) / 4.0;
+    assert!(close(lb.scenarios[0].as_ref().unwrap().success.estimate, expected));
+}
+
+#[test]
+fn paired_comparison_on_a_constructed_pair() {
+    let root = scratch("report-paired");
+    let ys = ScenarioKind::YieldStandoff;
+    let run = |model: &str, wins: &dyn Fn(u64) -> bool, seeds: u64| {
+        let h = hash(model, None);
+        let lines: Vec<String> = (0..seeds)
+            .map(|s| line(model, &h, ys, 1, s, 0, if wins(s) { Outcome::Success } else { Outcome::Collision }))
+            .collect();
+        write_run(&root.join(model), &RunSpec { seeds, ..spec(model) }, &lines);
+    };
+    // Shared seeds 0..40: A wins 0..30; B wins 0..22 and 35..37. B has 10 extra seeds it wins.
+    run("a", &|s| s < 30, 40);
+    run("b", &|s| s < 22 || (35..37).contains(&s) || s >= 40, 50);
+    let data = load_dirs(&[root.join("a"), root.join("b")]).unwrap();
+    let built = report::build_from(data, refs(), &opts()).unwrap();
+    let p = &built.report.paired[0];
+    // a ranks first (0.75 against b's 0.68 over its 50 seeds).
+    assert_eq!((p.a.as_str(), p.b.as_str(), p.keys), ("a", "b", 40), "{p:?}");
+    // a - b over the shared keys only: successes 30 vs 24 of 40.
+    assert!((p.diff.estimate - (30.0 - 24.0) / 40.0).abs() < 1e-12);
+    assert_eq!((p.success_a, p.success_b), (0.75, 0.6));
+    assert_eq!((p.a_only, p.b_only), (8, 2));
+    assert_eq!(p.mcnemar_p, mcnemar_exact(8, 2));
+    assert!(p.diff.lo < p.diff.estimate && p.diff.estimate < p.diff.hi);
+    let tied = p.diff.lo <= 0.0 && p.diff.hi >= 0.0;
+    assert_eq!(p.verdict, if tied { "tied".to_string() } else { "a better".to_string() }, "{p:?}");
+    // A clear gap is not tied.
+    let root2 = scratch("report-paired2");
+    let run2 = |model: &str, wins: &dyn Fn(u64) -> bool| {
+        let h = hash(model, None);
+        let lines: Vec<String> = (0..60)
+            .map(|s| line(model, &h, ys, 1, s, 0, if wins(s) { Outcome::Success } else { Outcome::Timeout }))
+            .collect();
+        write_run(&root2.join(model), &RunSpec { seeds: 60, ..spec(model) }, &lines);
+    };
+    run2("strong", &|s| s < 55);
+    run2("weak", &|s| s < 20);
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root2)).unwrap(), refs(), &opts()).unwrap();
+    let p = &built.report.paired[0];
+    assert_eq!((p.a_only, p.b_only, p.verdict.as_str()), (35, 0, "strong better"));
+    assert!(p.diff.lo > 0.0 && p.mcnemar_p < 1e-9);
+}
+
+#[test]
+fn leaderboard_snapshot() {
+    let root = scratch("report-snapshot");
+    let (ys, pf, cm) = (ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge);
+    let make = |model: &str, rate: [u64; 3]| {
+        let h = hash(model, None);
+        let mut lines = Vec::new();
+        for (k, s) in [ys, pf, cm].into_iter().enumerate() {
+            for seed in 0..20u64 {
+                let o = if (seed * 7 + k as u64) % 20 < rate[k] { Outcome::Success } else { Outcome::Timeout };
+                lines.push(line(model, &h, s, 1, seed, 0, o));
+            }
+        }
+        write_run(&root.join(model), &RunSpec { seeds: 20, scenarios: &[ys, pf, cm], ..spec(model) }, &lines);
+    };
+    make("alpha", [18, 12, 9]);
+    make("beta", [20, 6, 10]);
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
+    let table = built.report.display_tables()[0].markdown(3);
+    insta::assert_snapshot!(table, @r"
+    ### Success rates (tier 1; 95% percentile bootstrap CIs)
+
+    | model | avg. [95% CI] | yield_standoff [95% CI] | pedestrian_feint [95% CI] | contested_merge [95% CI] | yield DC | episodes |
+    |---|---|---|---|---|---|---|
+    | alpha | 0.65 [0.53, 0.78] | 0.90 [0.75, 1.00] | 0.60 [0.40, 0.80] | 0.45 [0.25, 0.65] | 0.82 | 60 |
+    | beta | 0.60 [0.48, 0.73] | 1.00 [1.00, 1.00] | 0.30 [0.10, 0.50] | 0.50 [0.30, 0.70] | 0.82 | 60 |
+    | expert reference | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 |  |
+    | always_proceed floor | 0.50 | 0.50 | 0.50 | 0.50 | 0.50 |  |
+
+    Per-scenario CIs resample seeds (10000 resamples); the average's CI resamples seeds jointly across scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: test references.
+    ");
+}
+
+// ---------------------------------------------------------------------------
+// End to end: serve + eval + report
+
+fn report_cmd(out: &Path, args: &[&str]) -> Command {
+    let mut c = negotiator();
+    c.arg("report").arg("--out").arg(out).args(args);
+    c
+}
+
+fn ok(mut c: Command) -> Output {
+    let out = c.output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.status.success(), "exit {:?}: {stderr}", out.status.code());
+    out
+}
+
+/// Two small runs (expert; always_proceed with injected failures and no
+/// retries, so some rollouts end as infrastructure errors) and a report.
+fn end_to_end() -> (PathBuf, Output) {
+    let root = scratch("report-e2e");
+    let runs = root.join("runs");
+    for (policy, extra) in [("expert", &[][..]), ("always_proceed", &["--fail-rate", "0.02"][..])] {
+        let server = Server::start(&[&["--policy", policy][..], extra].concat());
+        let out = negotiator()
+            .args(["eval", "--base-url", &server.base_url(), "--model", policy, "--quiet", "--output"])
+            .arg(&runs)
+            .args(["--run-name", policy, "--scenario", "all", "--tier", "all", "-n", "4", "-c", "8"])
+            .args(["--max-retries", "0", "--backoff-base-ms", "1"])
+            .output()
+            .unwrap();
+        assert!(matches!(out.status.code(), Some(0 | 1)), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let out = ok(report_cmd(
+        &root.join("report"),
+        &[runs.to_str().unwrap(), "--baselines", concat!(env!("CARGO_MANIFEST_DIR"), "/results/baselines")],
+    ));
+    (root, out)
+}
+
+/// Minimal XML well-formedness: balanced tags, no attribute twice.
+fn assert_well_formed(name: &str, text: &str) {
+    let mut stack: Vec<String> = Vec::new();
+    let mut rest = text;
+    while let Some(start) = rest.find('<') {
+        let end = rest[start..].find('>').map(|e| start + e).unwrap_or_else(|| panic!("{name}: unclosed tag"));
+        let tag = &rest[start + 1..end];
+        rest = &rest[end + 1..];
+        if tag.starts_with('?') || tag.starts_with('!') {
+            continue;
+        }
+        if let Some(close) = tag.strip_prefix('/') {
+            assert_eq!(stack.pop().as_deref(), Some(close.trim()), "{name}: mismatched </{close}>");
+            continue;
+        }
+        let self_closing = tag.ends_with('/');
+        let body = tag.trim_end_matches('/');
+        let el = body.split_whitespace().next().unwrap_or_default().to_string();
+        let mut names: Vec<&str> = Vec::new();
+        for part in body.split('"').step_by(2) {
+            if let Some(n) = part.trim().rsplit(' ').next().and_then(|a| a.strip_suffix('=')) {
+                assert!(!names.contains(&n), "{name}: attribute {n} twice in <{body}>");
+                names.push(n);
+            }
+        }
+        if !self_closing {
+            stack.push(el);
+        }
+    }
+    assert!(stack.is_empty(), "{name}: unclosed {stack:?}");
+}
+
+#[test]
+fn end_to_end_report_files_and_offline_html() {
+    let (root, out) = end_to_end();
+    let dir = root.join("report");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("Success rates (tier 1; 95% percentile bootstrap CIs)"), "{stdout}");
+    assert!(stdout.contains("expert reference") && stdout.contains("always_proceed floor"), "{stdout}");
+    // Which always_proceed rollouts fail is up to scheduling, so the verdict is not pinned here.
+    let paired = &stdout[stdout.find("Paired comparisons").expect("paired table")..];
+    assert!(paired.lines().nth(3).is_some_and(|l| l.starts_with("expert") && l.contains("always_proceed")), "{paired}");
+    for f in [
+        "report.html",
+        "report.md",
+        "report.json",
+        "leaderboard.csv",
+        "tiers.csv",
+        "outcomes.csv",
+        "paired.csv",
+        "errors_cost.csv",
+    ] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    let csv = std::fs::read_to_string(dir.join("leaderboard.csv")).unwrap();
+    assert!(csv.starts_with("model,kind,avg,avg_lo,avg_hi,yield_standoff,yield_standoff_lo,"), "{csv}");
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["resamples"], 10000);
+    assert_eq!(json["leaderboard"]["rows"][0]["model"], "expert");
+
+    // Infrastructure errors: the report's count is the run's own.
+    let run: Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("runs/always_proceed/run.json")).unwrap()).unwrap();
+    let cost = json["costs"].as_array().unwrap().iter().find(|c| c["model"] == "always_proceed").unwrap();
+    assert_eq!(cost["missing"], run["totals"]["missing"]);
+    let errors = std::fs::read_to_string(root.join("runs/always_proceed/errors.jsonl")).unwrap_or_default();
+    assert_eq!(cost["infra_errors"].as_u64().unwrap() as usize > 0, !errors.trim().is_empty());
+
+    // With one rollout per seed, a (scenario, tier) cell's interval is the one in eval's summary.
+    for model in ["expert", "always_proceed"] {
+        let path = root.join(format!("runs/{model}/summary.json"));
+        let summary: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+        for cell in summary["cells"].as_array().unwrap().iter().filter(|c| c["episodes"].as_u64() > Some(0)) {
+            let row = json["tier_rows"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|r| r["model"] == model && r["scenario"] == cell["scenario"] && r["tier"] == cell["tier"])
+                .unwrap();
+            assert_eq!(row["success"], cell["success"], "{model} {}", cell["scenario"]);
+        }
+    }
+
+    // Plots: every kind, well-formed, self-contained.
+    let plots: Vec<PathBuf> = std::fs::read_dir(dir.join("plots")).unwrap().map(|e| e.unwrap().path()).collect();
+    for stem in ["success_by_scenario", "ranked_mean", "success_vs_correctness", "tier_ladder", "outcomes", "radar"] {
+        assert!(plots.iter().any(|p| p.file_stem().unwrap() == stem), "{stem}.svg missing");
+    }
+    assert!(plots.iter().any(|p| p.file_name().unwrap().to_string_lossy().starts_with("trajectory_always_proceed_")));
+    for p in &plots {
+        let text = std::fs::read_to_string(p).unwrap();
+        assert_well_formed(&p.display().to_string(), &text);
+        assert_eq!(text.matches("http").count(), 1, "{}: only the SVG namespace", p.display());
+    }
+
+    // report.html: one file, nothing external.
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(!html.contains("http"), "report.html mentions a URL");
+    for bad in ["<link", "src=", "@import", "url("] {
+        assert!(!html.contains(bad), "report.html contains {bad}");
+    }
+    assert!(html.contains("id=\"drill-data\"") && html.contains("<svg "));
+    assert_well_formed("report.html body", &html[html.find("<main>").unwrap()..html.find("</main>").unwrap() + 7]);
+
+    // Headless Chromium renders it and the drill-down script fills the episode view.
+    let chromium = Path::new("/usr/bin/chromium");
+    if !chromium.exists() {
+        eprintln!(
+            "skipped: chromium not installed (/usr/bin/chromium); apt-get install -y chromium to run the render test"
+        );
+        return;
+    }
+    let profile = root.join("chromium-profile");
+    let dom = Command::new(chromium)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
+        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("file://{}", dir.join("report.html").display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(dom.contains("data-state=\"rendered\""), "the drill-down did not render: {}", &dom[..dom.len().min(400)]);
+    assert!(dom.contains("class=\"turn-row\""), "no turn rows in the rendered drill-down");
+    assert!(dom.contains("data-episode=\"0|"), "the first model's episode is shown");
+}
+
+#[test]
+fn bad_input_is_a_one_line_usage_error() {
+    let root = scratch("report-bad");
+    let cases: [(Vec<String>, &str); 4] = [
+        (vec![root.join("absent").display().to_string()], "no such directory"),
+        (vec![root.display().to_string()], "not a run directory"),
+        (vec![root.display().to_string(), "--tiers".into(), "4".into()], "--tiers"),
+        (vec![root.display().to_string(), "--resamples".into(), "100".into()], "--resamples"),
+    ];
+    std::fs::create_dir_all(root.join("empty")).unwrap();
+    for (args, expected) in cases {
+        let out = report_cmd(&root.join("out"), &args.iter().map(String::as_str).collect::<Vec<_>>()).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(expected) && stderr.trim().lines().count() == 1, "{args:?}: {stderr}");
+    }
+    // An explicit --baselines directory without the table.
+    let h = hash("m", None);
+    write_run(&root.join("run"), &spec("m"), &[line("m", &h, ScenarioKind::YieldStandoff, 1, 0, 0, Outcome::Success)]);
+    let out =
+        report_cmd(&root.join("out"), &[root.join("run").to_str().unwrap(), "--baselines", root.to_str().unwrap()])
+            .output()
+            .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("baselines.csv"));
+}
