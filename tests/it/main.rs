@@ -3,4 +3,5 @@
 mod core;
 mod eval;
 mod report;
+mod run_v0;
 mod serve;
