@@ -2,6 +2,7 @@
 //! summarised per cell with normal-approximation 95% CIs.
 
 use crate::episode::{EpisodeRecord, Outcome, run_episode};
+use crate::par::par_map;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use crate::stats::{Interval, normal_ci_mean, normal_ci_proportion};
@@ -122,23 +123,9 @@ pub fn run_grid(
             }
         }
     }
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(cells.len().max(1));
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut out: Vec<Option<CellSummary>> = vec![None; cells.len()];
-    let results = std::sync::Mutex::new(&mut out);
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(&cell) = cells.get(i) else { break };
-                    let records = run_cell(set, cell, spec.episodes, spec.seed_base);
-                    each(cell, &records);
-                    let summary = CellSummary::from_records(cell, &records);
-                    results.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(summary);
-                }
-            });
-        }
-    });
-    out.into_iter().flatten().collect()
+    par_map(&cells, |&cell| {
+        let records = run_cell(set, cell, spec.episodes, spec.seed_base);
+        each(cell, &records);
+        CellSummary::from_records(cell, &records)
+    })
 }

@@ -2,12 +2,27 @@
 //! scripted baseline) can read another road user's hidden intent from its
 //! motion and drive accordingly.
 //!
-//! Layout: [`sim`] (physics), [`scenario`] (the three worlds and their
-//! parameters), [`observation`] (public view, text renderer and parser),
-//! [`action`] (the action and its protective parser), [`policy`] (baselines),
-//! [`episode`] (the environment loop), [`grading`] (reward, correctness,
-//! diagnostics), [`baselines`] and [`validate`] (reference table and
-//! invariants), [`stats`].
+//! Layout, one line per module:
+//! - [`sim`]: physics (kinematic bodies, controller limits);
+//! - [`scenario`]: the three worlds, their tiers and TOML parameters;
+//! - [`observation`]: the public view, its text renderer and parser;
+//! - [`action`]: the action and its protective parser;
+//! - [`policy`]: the scripted baselines;
+//! - [`episode`]: the environment loop;
+//! - [`grading`]: reward, decision correctness, diagnostics;
+//! - [`rng`]: the seeded per-episode random streams;
+//! - `hash`: SplitMix64 and FNV-1a, the only hash functions;
+//! - `par`: the parallel map used by the baseline grid and the report;
+//! - [`stats`]: intervals, bootstraps, McNemar, pass^k;
+//! - [`baselines`]: the reference grid of the scripted policies;
+//! - [`validate`]: the invariants;
+//! - [`export`]: output formats of tables (aligned text, Markdown, CSV,
+//!   JSON);
+//! - [`llm`]: the OpenAI-compatible chat client;
+//! - [`eval`]: `eval`, a language model as the policy;
+//! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;
+//! - [`report`]: leaderboards, paired comparisons, plots, report.html;
+//! - [`cli`]: one file per subcommand.
 
 pub mod action;
 pub mod baselines;
@@ -16,13 +31,15 @@ pub mod episode;
 pub mod eval;
 pub mod export;
 pub mod grading;
+pub(crate) mod hash;
 pub mod llm;
 pub mod observation;
+pub(crate) mod par;
 pub mod policy;
 pub mod report;
 pub mod rng;
 pub mod scenario;
-pub mod serve;
+pub(crate) mod serve;
 pub mod sim;
 pub mod stats;
 pub mod validate;

@@ -4,6 +4,7 @@
 //! disposition never shifts the geometry draws, and noise never shifts
 //! either.
 
+use crate::hash::splitmix64;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -18,23 +19,15 @@ pub enum Stream {
 
 pub struct EpisodeRng(ChaCha8Rng);
 
-/// SplitMix64 finaliser: spreads nearby keys over the whole seed space.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 impl EpisodeRng {
     pub fn new(key: &[u64], stream: Stream) -> Self {
         let mut seed = [0u8; 32];
-        let mut h = mix(stream as u64);
+        let mut h = splitmix64(stream as u64);
         for (i, k) in key.iter().enumerate() {
-            h = mix(h ^ mix(*k ^ (i as u64).wrapping_mul(0xA24B_AED4_963E_E407)));
+            h = splitmix64(h ^ splitmix64(*k ^ (i as u64).wrapping_mul(0xA24B_AED4_963E_E407)));
         }
         for (i, chunk) in seed.chunks_mut(8).enumerate() {
-            h = mix(h ^ i as u64);
+            h = splitmix64(h ^ i as u64);
             chunk.copy_from_slice(&h.to_le_bytes());
         }
         EpisodeRng(ChaCha8Rng::from_seed(seed))

@@ -26,6 +26,7 @@
 //! `<think>`): driving on a parse error, not an infrastructure failure.
 
 use crate::action::Action;
+use crate::hash::{fnv1a64, splitmix64, unit_f64};
 use crate::observation::parse_scene;
 use crate::policy::PolicyKind;
 use axum::Router;
@@ -43,26 +44,26 @@ use std::time::{Duration, Instant, SystemTime};
 
 /// Server settings.
 #[derive(Debug, Clone)]
-pub struct ServeConfig {
-    pub policy: PolicyKind,
-    pub seed: u64,
-    pub latency: Duration,
-    pub fail_rate: f64,
-    pub rate_limit: Option<f64>,
-    pub drop_rate: f64,
-    pub garbage_rate: f64,
+pub(crate) struct ServeConfig {
+    pub(crate) policy: PolicyKind,
+    pub(crate) seed: u64,
+    pub(crate) latency: Duration,
+    pub(crate) fail_rate: f64,
+    pub(crate) rate_limit: Option<f64>,
+    pub(crate) drop_rate: f64,
+    pub(crate) garbage_rate: f64,
 }
 
 /// Counts of what was served (for the shutdown line and tests).
 #[derive(Debug, Default)]
-pub struct ServeStats {
-    pub requests: AtomicU64,
-    pub ok: AtomicU64,
-    pub failed: AtomicU64,
-    pub rate_limited: AtomicU64,
-    pub dropped: AtomicU64,
-    pub garbage: AtomicU64,
-    pub unparseable_scenes: AtomicU64,
+pub(crate) struct ServeStats {
+    pub(crate) requests: AtomicU64,
+    pub(crate) ok: AtomicU64,
+    pub(crate) failed: AtomicU64,
+    pub(crate) rate_limited: AtomicU64,
+    pub(crate) dropped: AtomicU64,
+    pub(crate) garbage: AtomicU64,
+    pub(crate) unparseable_scenes: AtomicU64,
 }
 
 struct Bucket {
@@ -70,15 +71,15 @@ struct Bucket {
     last: Instant,
 }
 
-pub struct ServeState {
+pub(crate) struct ServeState {
     config: ServeConfig,
-    pub stats: ServeStats,
+    pub(crate) stats: ServeStats,
     bucket: Option<Mutex<Bucket>>,
     created: u64,
 }
 
 impl ServeState {
-    pub fn new(config: ServeConfig) -> ServeState {
+    pub(crate) fn new(config: ServeConfig) -> ServeState {
         let bucket = config.rate_limit.map(|rps| Mutex::new(Bucket { tokens: rps.max(1.0), last: Instant::now() }));
         let created = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
         ServeState { config, stats: ServeStats::default(), bucket, created }
@@ -102,29 +103,13 @@ impl ServeState {
 }
 
 /// The routes: `POST /v1/chat/completions`, `GET /v1/models`.
-pub fn router(state: Arc<ServeState>) -> Router {
+pub(crate) fn router(state: Arc<ServeState>) -> Router {
     Router::new().route("/v1/chat/completions", post(chat)).route("/v1/models", get(models)).with_state(state)
-}
-
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// Independent uniform draws for request `i`: draw `k` of stream (seed, i).
 fn draw(seed: u64, i: u64, k: u64) -> f64 {
-    (mix(mix(seed ^ mix(i)) ^ k) >> 11) as f64 / (1u64 << 53) as f64
-}
-
-fn fnv(s: &str) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in s.as_bytes() {
-        h ^= *b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
+    unit_f64(splitmix64(splitmix64(seed ^ splitmix64(i)) ^ k))
 }
 
 fn error_response(status: StatusCode, kind: &str, message: &str) -> Response {
@@ -156,21 +141,44 @@ fn content_text(v: &Value) -> Option<String> {
 }
 
 /// The scripted model's answer to a scene text.
-pub fn answer(policy: PolicyKind, seed: u64, scene_text: &str) -> (Action, String) {
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Answer {
+    pub(crate) action: Action,
+    /// The `reasoning` field of the reply.
+    pub(crate) reasoning: String,
+    /// Whether the scene text could be read (else the action is the
+    /// conservative stop); counted in [`ServeStats::unparseable_scenes`].
+    pub(crate) scene: SceneRead,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SceneRead {
+    Readable,
+    Unreadable,
+}
+
+pub(crate) fn answer(policy: PolicyKind, seed: u64, scene_text: &str) -> Answer {
     match parse_scene(scene_text) {
         Ok(obs) => {
             let mut p = policy.build();
-            p.reset(mix(seed ^ fnv(scene_text)));
-            let action = p.act(&obs);
-            (action, format!("{policy} policy at turn {} of {}", obs.turn, obs.turn_budget))
+            p.reset(splitmix64(seed ^ fnv1a64(scene_text)));
+            Answer {
+                action: p.act(&obs),
+                reasoning: format!("{policy} policy at turn {} of {}", obs.turn, obs.turn_budget),
+                scene: SceneRead::Readable,
+            }
         }
-        Err(e) => (Action::CONSERVATIVE, format!("no readable scene ({e}); stopping")),
+        Err(e) => Answer {
+            action: Action::CONSERVATIVE,
+            reasoning: format!("no readable scene ({e}); stopping"),
+            scene: SceneRead::Unreadable,
+        },
     }
 }
 
 /// The JSON reply content for an action. Numbers are printed in full
 /// (shortest round-trip form), so the client executes exactly this action.
-pub fn action_content(action: &Action, reasoning: &str) -> String {
+pub(crate) fn action_content(action: &Action, reasoning: &str) -> String {
     json!({
         "reasoning": reasoning,
         "acceleration": action.acceleration,
@@ -182,7 +190,7 @@ pub fn action_content(action: &Action, reasoning: &str) -> String {
 
 /// Malformed replies for `--garbage-rate`: each is a parse error for
 /// [`crate::action::parse_action`]. Returns (content, finish_reason).
-pub fn garbage(k: u64) -> (Option<String>, &'static str) {
+pub(crate) fn garbage(k: u64) -> (Option<String>, &'static str) {
     match k % 7 {
         0 => (Some("I would slow down a little and watch the other car carefully.".into()), "stop"),
         1 => (Some("{\"reasoning\": \"the other car is braking, so I will\", \"maneuver\": \"proc".into()), "length"),
@@ -259,14 +267,14 @@ async fn chat(State(state): State<Arc<ServeState>>, body: Bytes) -> Response {
     }
     let (content, finish) = if draw(cfg.seed, i, 4) < cfg.garbage_rate {
         state.stats.garbage.fetch_add(1, Ordering::Relaxed);
-        garbage(mix(cfg.seed ^ i))
+        garbage(splitmix64(cfg.seed ^ i))
     } else {
         let scene = request.messages.iter().rev().find(|m| m.role == "user").and_then(|m| content_text(&m.content));
-        let (action, reasoning) = answer(cfg.policy, cfg.seed, scene.as_deref().unwrap_or(""));
-        if reasoning.starts_with("no readable scene") {
+        let answer = answer(cfg.policy, cfg.seed, scene.as_deref().unwrap_or(""));
+        if answer.scene == SceneRead::Unreadable {
             state.stats.unparseable_scenes.fetch_add(1, Ordering::Relaxed);
         }
-        (Some(action_content(&action, &reasoning)), "stop")
+        (Some(action_content(&answer.action, &answer.reasoning)), "stop")
     };
     let reply = completion(&state, i, &model, content, finish, body.len()).to_string();
     if draw(cfg.seed, i, 3) < cfg.drop_rate {
@@ -299,7 +307,7 @@ async fn models(State(state): State<Arc<ServeState>>) -> Response {
 
 /// Bind, print `listening on http://HOST:PORT/v1` on stdout, serve until
 /// Ctrl-C (or SIGTERM).
-pub async fn serve(host: &str, port: u16, config: ServeConfig) -> std::io::Result<Arc<ServeState>> {
+pub(crate) async fn serve(host: &str, port: u16, config: ServeConfig) -> std::io::Result<Arc<ServeState>> {
     let listener = tokio::net::TcpListener::bind((host, port)).await?;
     let addr = listener.local_addr()?;
     let state = Arc::new(ServeState::new(config));
@@ -362,9 +370,9 @@ mod tests {
 
     #[test]
     fn unreadable_scene_gets_the_conservative_stop() {
-        let (a, why) = answer(PolicyKind::Expert, 0, "hello");
-        assert_eq!(a, Action::CONSERVATIVE);
-        assert!(why.starts_with("no readable scene"));
+        let a = answer(PolicyKind::Expert, 0, "hello");
+        assert_eq!((a.action, a.scene), (Action::CONSERVATIVE, SceneRead::Unreadable));
+        assert!(a.reasoning.starts_with("no readable scene"), "{}", a.reasoning);
     }
 
     #[test]
@@ -375,12 +383,13 @@ mod tests {
             let ep = Episode::new(&ScenarioConfig::builtin(kind), Tier::T1, 3);
             let text = crate::observation::render_scene(ep.observation());
             for policy in PolicyKind::ALL {
-                let (action, why) = answer(policy, 5, &text);
-                let parsed = crate::action::parse_action(&action_content(&action, &why));
+                let a = answer(policy, 5, &text);
+                assert_eq!(a.scene, SceneRead::Readable);
+                let parsed = crate::action::parse_action(&action_content(&a.action, &a.reasoning));
                 assert!(parsed.is_clean(), "{policy}: {:?}", parsed.errors);
-                assert_eq!(parsed.action, action);
+                assert_eq!(parsed.action, a.action);
                 // Same scene, same answer (random included).
-                assert_eq!(answer(policy, 5, &text).0, action);
+                assert_eq!(answer(policy, 5, &text), a);
             }
         }
     }

@@ -1,5 +1,5 @@
 //! Statistics for benchmark reports: confidence intervals (normal
-//! approximation, Wilson, percentile bootstrap, clustered and paired
+//! approximation, percentile bootstrap, clustered and paired
 //! bootstrap), the exact McNemar test and the unbiased pass^k estimator.
 //!
 //! Everything is deterministic: resampling uses a `ChaCha8Rng` seeded with
@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use statrs::function::factorial::ln_binomial;
 
 /// Two-sided 97.5% standard-normal quantile, Φ⁻¹(0.975), used for 95% intervals.
-pub const Z_95: f64 = 1.959963984540054;
+pub(crate) const Z_95: f64 = 1.959963984540054;
 
 /// Lower and upper tail probabilities of the 95% percentile interval.
 const LO_Q: f64 = 0.025;
@@ -44,7 +44,7 @@ pub enum StatsError {
 }
 
 /// Arithmetic mean `Σxᵢ / n`; NaN for an empty slice.
-pub fn mean(xs: &[f64]) -> f64 {
+pub(crate) fn mean(xs: &[f64]) -> f64 {
     if xs.is_empty() {
         return f64::NAN;
     }
@@ -56,7 +56,7 @@ pub fn mean(xs: &[f64]) -> f64 {
 /// `p̂ = successes / n`, bounds `p̂ ± Z_95 · √(p̂(1 − p̂)/n)` clamped to
 /// `[0, 1]`. The estimate is `p̂`. Returns all-NaN when `n = 0` or
 /// `successes > n` (undefined proportion).
-pub fn normal_ci_proportion(successes: usize, n: usize) -> Interval {
+pub(crate) fn normal_ci_proportion(successes: usize, n: usize) -> Interval {
     if n == 0 || successes > n {
         return Interval::NAN;
     }
@@ -66,32 +66,12 @@ pub fn normal_ci_proportion(successes: usize, n: usize) -> Interval {
     Interval { estimate: p, lo: (p - half).clamp(0.0, 1.0), hi: (p + half).clamp(0.0, 1.0) }
 }
 
-/// Wilson score 95% interval for a proportion.
-///
-/// With `p̂ = successes / n` and `z = Z_95`: centre
-/// `(p̂ + z²/(2n)) / (1 + z²/n)`, half-width
-/// `z / (1 + z²/n) · √(p̂(1 − p̂)/n + z²/(4n²))`, bounds clamped to
-/// `[0, 1]`. The estimate is `p̂` (not the Wilson centre). Returns all-NaN
-/// when `n = 0` or `successes > n`.
-pub fn wilson_ci(successes: usize, n: usize) -> Interval {
-    if n == 0 || successes > n {
-        return Interval::NAN;
-    }
-    let nf = n as f64;
-    let p = successes as f64 / nf;
-    let z2 = Z_95 * Z_95;
-    let denom = 1.0 + z2 / nf;
-    let centre = (p + z2 / (2.0 * nf)) / denom;
-    let half = Z_95 / denom * (p * (1.0 - p) / nf + z2 / (4.0 * nf * nf)).sqrt();
-    Interval { estimate: p, lo: (centre - half).clamp(0.0, 1.0), hi: (centre + half).clamp(0.0, 1.0) }
-}
-
 /// Normal-approximation 95% interval for a mean.
 ///
 /// `x̄ ± Z_95 · s/√n`, where `s` is the sample standard deviation with the
 /// `n − 1` denominator. For `n = 1` the spread is undefined and the result
 /// is `lo = hi = x̄`; for `n = 0` everything is NaN.
-pub fn normal_ci_mean(xs: &[f64]) -> Interval {
+pub(crate) fn normal_ci_mean(xs: &[f64]) -> Interval {
     let n = xs.len();
     let m = mean(xs);
     if n < 2 {
@@ -109,7 +89,7 @@ pub fn normal_ci_mean(xs: &[f64]) -> Interval {
 ///
 /// Returns NaN for an empty slice or `q` outside `[0, 1]` (or NaN). The
 /// caller guarantees the slice is sorted ascending.
-pub fn quantile(sorted: &[f64], q: f64) -> f64 {
+pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
     let n = sorted.len();
     if n == 0 || !(0.0..=1.0).contains(&q) {
         return f64::NAN;
@@ -240,7 +220,7 @@ fn min_max<'a>(xs: impl IntoIterator<Item = &'a f64>) -> (f64, f64) {
 /// if any value is non-finite the bounds are NaN (and the estimate is the
 /// plain mean). The percentile interval need not contain `x̄` in general,
 /// though it does for any non-degenerate sample in practice.
-pub fn bootstrap_mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
+pub(crate) fn bootstrap_mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
     let n = xs.len();
     if n == 0 {
         return Interval::NAN;
@@ -284,7 +264,11 @@ pub fn bootstrap_mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
 /// counts non-empty clusters). NaN semantics as [`bootstrap_mean_ci`]: no
 /// values gives all-NaN, `resamples = 0` or a non-finite value gives NaN
 /// bounds.
-pub fn bootstrap_clustered_mean_ci(groups: &[Vec<f64>], resamples: usize, seed: u64) -> Interval {
+///
+/// Only the tests use it: it is the oracle that the report's clustered
+/// mean-of-means interval ([`crate::report::boot`]) is checked against.
+#[cfg(test)]
+pub(crate) fn bootstrap_clustered_mean_ci(groups: &[Vec<f64>], resamples: usize, seed: u64) -> Interval {
     // Per-cluster (sum, count); each replicate then costs O(G).
     let nonempty = || groups.iter().filter(|g| !g.is_empty());
     let sums: Vec<f64> = nonempty().map(|g| g.iter().sum()).collect();
@@ -325,7 +309,12 @@ pub fn bootstrap_clustered_mean_ci(groups: &[Vec<f64>], resamples: usize, seed: 
 /// the between-pair variation shared by `a` and `b` cancels. Returns
 /// [`StatsError::LengthMismatch`] if the lengths differ; NaN semantics
 /// otherwise as [`bootstrap_mean_ci`].
-pub fn paired_bootstrap_diff_ci(a: &[f64], b: &[f64], resamples: usize, seed: u64) -> Result<Interval, StatsError> {
+pub(crate) fn paired_bootstrap_diff_ci(
+    a: &[f64],
+    b: &[f64],
+    resamples: usize,
+    seed: u64,
+) -> Result<Interval, StatsError> {
     if a.len() != b.len() {
         return Err(StatsError::LengthMismatch { a: a.len(), b: b.len() });
     }
@@ -371,7 +360,7 @@ pub fn mcnemar_exact(b: usize, c: usize) -> f64 {
 ///
 /// Computed as the product `Π_{i<k} (c − i)/(r − i)` (no overflow).
 /// `c < k` gives 0, `k = 0` gives 1; `k > r` or `c > r` gives NaN.
-pub fn pass_hat_k(c: usize, r: usize, k: usize) -> f64 {
+pub(crate) fn pass_hat_k(c: usize, r: usize, k: usize) -> f64 {
     if k > r || c > r {
         return f64::NAN;
     }
@@ -384,7 +373,7 @@ pub fn pass_hat_k(c: usize, r: usize, k: usize) -> f64 {
 /// Mean of [`pass_hat_k`] over seeds, each given as `(successes, rollouts)`:
 /// `(1/S) Σ_s C(c_s, k)/C(r_s, k)`. NaN if `per_seed` is empty or any seed
 /// has `k > r_s` or `c_s > r_s`.
-pub fn mean_pass_hat_k(per_seed: &[(usize, usize)], k: usize) -> f64 {
+pub(crate) fn mean_pass_hat_k(per_seed: &[(usize, usize)], k: usize) -> f64 {
     if per_seed.is_empty() {
         return f64::NAN;
     }
@@ -429,17 +418,6 @@ mod tests {
         let iv = normal_ci_proportion(0, 0);
         assert!(iv.estimate.is_nan() && iv.lo.is_nan() && iv.hi.is_nan());
         assert!(normal_ci_proportion(3, 2).estimate.is_nan());
-    }
-
-    #[test]
-    fn wilson_known_values() {
-        // Standard tabulated Wilson bounds.
-        let iv = wilson_ci(0, 10);
-        assert_eq!(iv.lo, 0.0);
-        assert!(close(iv.hi, 0.2775, 1e-4), "{iv:?}");
-        let iv = wilson_ci(50, 100);
-        assert!(close(iv.lo, 0.4038, 1e-4) && close(iv.hi, 0.5962, 1e-4), "{iv:?}");
-        assert!(wilson_ci(0, 0).lo.is_nan());
     }
 
     #[test]

@@ -10,9 +10,10 @@
 //! explicitly; an existing run there with another configuration is refused.
 
 use super::{RefusedError, exit, parse_list, usage};
-use crate::eval::config::{EndpointsFile, HistoryWindow, RunConfig, Shard, fnv_hex, sanitize_name};
+use crate::eval::config::{EndpointsFile, HistoryWindow, RunConfig, Shard, sanitize_name};
 use crate::eval::progress::Mode;
 use crate::eval::{EvalError, EvalOptions};
+use crate::hash::fnv1a64_hex;
 use crate::llm::{ClientConfig, RetryPolicy};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use reqwest::header::{HeaderMap, HeaderName, HeaderValue};
@@ -256,8 +257,8 @@ impl EvalArgs {
             model: model.clone(),
             request_params: params,
             history,
-            prompt_hash: fnv_hex(crate::eval::prompt::SYSTEM_PROMPT),
-            scenarios_hash: fnv_hex(&Value::Array(scenarios_json).to_string()),
+            prompt_hash: fnv1a64_hex(crate::eval::prompt::SYSTEM_PROMPT),
+            scenarios_hash: fnv1a64_hex(&Value::Array(scenarios_json).to_string()),
         };
         let run_name = match &self.run_name {
             Some(n) => {

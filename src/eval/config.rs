@@ -190,7 +190,7 @@ impl RunConfig {
     /// 16 hex digits of FNV-1a over the canonical JSON of the config. Not
     /// cryptographic: it names directories and detects edits.
     pub fn hash(&self) -> String {
-        fnv_hex(&serde_json::to_string(self).expect("config serialises"))
+        crate::hash::fnv1a64_hex(&serde_json::to_string(self).expect("config serialises"))
     }
 
     /// Human-readable differences, one per changed field
@@ -219,15 +219,6 @@ fn diff_values(path: &str, a: &Value, b: &Value, out: &mut Vec<String>) {
         }
         _ => {}
     }
-}
-
-pub fn fnv_hex(s: &str) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in s.as_bytes() {
-        h ^= *b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    format!("{h:016x}")
 }
 
 /// A directory-safe rendering of a model id: `openai/gpt-4o` -> `openai_gpt-4o`.

@@ -45,7 +45,7 @@ pub struct Summary {
 /// Bootstrap seed of a cell: fixed, so a summary is a pure function of the
 /// episodes (a resumed run's summary equals an uninterrupted one's).
 fn cell_seed(scenario: ScenarioKind, tier: Tier) -> u64 {
-    u64::from_str_radix(&super::config::fnv_hex(&format!("{scenario}/{tier}")), 16).unwrap_or(0)
+    crate::hash::fnv1a64(&format!("{scenario}/{tier}"))
 }
 
 /// `cells`: for each (scenario, tier) of the selection, the finished

@@ -2,6 +2,7 @@
 //! backoff and jitter, `Retry-After` honoured, failures classified.
 
 use super::types::{ChatRequest, ChatResponse, Usage, split_think};
+use crate::hash::{GOLDEN_GAMMA, splitmix64, unit_f64};
 use reqwest::header::{AUTHORIZATION, CONTENT_TYPE, HeaderMap, HeaderValue};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant, SystemTime};
@@ -148,8 +149,6 @@ pub struct Completion {
     pub attempts: u32,
     /// Wall time of the successful attempt.
     pub latency: Duration,
-    /// Wall time including failed attempts and backoff.
-    pub elapsed: Duration,
 }
 
 /// Why one attempt failed.
@@ -194,12 +193,8 @@ impl Client {
     /// A uniform draw in [0, 1) for jitter. Not reproducible on purpose:
     /// retry timing never influences an episode.
     fn unit(&self) -> f64 {
-        let z = self.jitter.fetch_add(0x9E37_79B9_7F4A_7C15, Ordering::Relaxed);
-        let mut z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
+        let state = self.jitter.fetch_add(GOLDEN_GAMMA, Ordering::Relaxed);
+        unit_f64(splitmix64(state))
     }
 
     /// Send one chat request, retrying transient failures. `on_retry` is
@@ -207,7 +202,6 @@ impl Client {
     pub async fn chat(&self, request: &ChatRequest<'_>, on_retry: impl Fn()) -> Result<Completion, LlmError> {
         // Serialise once; every attempt sends the same bytes.
         let body = serde_json::to_vec(request).expect("a chat request always serialises");
-        let started = Instant::now();
         let mut last = String::new();
         let attempts_allowed = self.config.retry.max_retries.saturating_add(1);
         for attempt in 0..attempts_allowed {
@@ -216,7 +210,6 @@ impl Client {
                 Ok(mut c) => {
                     c.attempts = attempt + 1;
                     c.latency = t0.elapsed();
-                    c.elapsed = started.elapsed();
                     return Ok(c);
                 }
                 Err(AttemptError::Fatal(e)) => return Err(e),

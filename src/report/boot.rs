@@ -9,19 +9,15 @@
 //! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,
 //! so with one rollout per seed the two agree digit for digit.
 
-use crate::eval::config::fnv_hex;
+use crate::hash::{GOLDEN_GAMMA, fnv1a64};
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, StatsError, bootstrap_mean_ci, paired_bootstrap_diff_ci, quantile};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-fn fnv_u64(s: &str) -> u64 {
-    u64::from_str_radix(&fnv_hex(s), 16).unwrap_or(0)
-}
-
 /// Seed of the statistic named `label`, shifted by the user's `--seed`.
 pub fn seed_for(base: u64, label: &str) -> u64 {
-    fnv_u64(label) ^ base.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    fnv1a64(label) ^ base.wrapping_mul(GOLDEN_GAMMA)
 }
 
 /// Seed of a (scenario, tier) cell; with base 0 it is `eval`'s summary seed.
@@ -160,8 +156,8 @@ mod tests {
 
     #[test]
     fn cell_seed_is_the_summary_seed() {
-        // eval's summary: u64::from_str_radix(fnv_hex("scenario/tier"), 16).
-        let expected = u64::from_str_radix(&fnv_hex("yield_standoff/1"), 16).unwrap();
+        // eval's summary: FNV-1a of "scenario/tier".
+        let expected = fnv1a64("yield_standoff/1");
         assert_eq!(cell_seed(0, ScenarioKind::YieldStandoff, Tier::T1), expected);
         assert_ne!(cell_seed(1, ScenarioKind::YieldStandoff, Tier::T1), expected);
     }

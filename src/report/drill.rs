@@ -11,9 +11,9 @@
 
 use super::ReportError;
 use super::load::{Dataset, Episode};
-use super::par::par_map;
 use crate::episode::Outcome;
 use crate::eval::record::RolloutRecord;
+use crate::par::par_map;
 use crate::scenario::ScenarioKind;
 use serde::Serialize;
 use std::collections::HashMap;

@@ -14,10 +14,10 @@
 //! that does not allow this is parsed whole. Files are read in parallel.
 
 use super::ReportError;
-use super::par::par_map;
 use crate::episode::Outcome;
 use crate::eval::record::{EpisodeKey, InfraErrorRecord};
 use crate::eval::store::{self, ERRORS, ROLLOUTS, RUN_JSON, RunInfo, StoreError};
+use crate::par::par_map;
 use crate::scenario::{Disposition, ScenarioKind, Tier};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashSet};

@@ -14,7 +14,6 @@ pub mod drill;
 pub mod html;
 pub mod load;
 pub mod paired;
-mod par;
 pub mod passk;
 pub mod plots;
 pub mod reference;

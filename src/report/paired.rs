@@ -13,9 +13,9 @@
 
 use super::boot::{paired_ci, seed_for};
 use super::load::ModelData;
-use super::par::par_map;
 use super::table::{Table, f2, f4, with_ci};
 use super::tables::{Unit, tiers_label, units};
+use crate::par::par_map;
 use crate::scenario::Tier;
 use crate::stats::{Interval, mcnemar_exact};
 use serde::Serialize;

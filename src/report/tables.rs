@@ -7,10 +7,10 @@
 
 use super::boot::{cell_seed, clustered_mean_of_means_ci, mean_ci, seed_for};
 use super::load::{Episode, ModelData, same_unit};
-use super::par::par_map;
 use super::reference::{CEILING, FLOOR, References};
 use super::table::{Table, f2, f4, with_ci};
 use crate::episode::Outcome;
+use crate::par::par_map;
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, mean, quantile};
 use serde::Serialize;

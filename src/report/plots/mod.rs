@@ -54,10 +54,6 @@ impl PlotInput<'_> {
     pub fn models(&self) -> Vec<&str> {
         self.leaderboard.rows.iter().map(|r| r.model.as_str()).collect()
     }
-
-    pub fn color_of(&self, model: &str) -> &'static str {
-        color(self.models().iter().position(|m| *m == model).unwrap_or(0))
-    }
 }
 
 pub fn all(input: &PlotInput) -> Vec<Plot> {

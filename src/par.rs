@@ -1,5 +1,6 @@
 //! A minimal parallel map over the machine's cores (scoped threads pulling
-//! items from a shared counter), for reading files and for the bootstraps.
+//! items from a shared counter): the baseline grid's cells, the report's
+//! file reads and bootstraps.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -10,7 +11,7 @@ fn threads(items: usize) -> usize {
 
 /// `items.iter().map(f).collect()`, computed on all cores; the order of
 /// the results is the order of the items.
-pub fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+pub(crate) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
     let threads = threads(items.len());
     if threads <= 1 {
         return items.iter().map(f).collect();
