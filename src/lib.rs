@@ -14,6 +14,8 @@
 //! - `hash`: SplitMix64 and FNV-1a, the only hash functions;
 //! - `par`: the parallel map used by the baseline grid and the report;
 //! - [`stats`]: intervals, bootstraps, McNemar, pass^k;
+//! - [`rundir`]: the run directory's schema (run.json, the JSON-lines
+//!   records and their one reader), written by `eval`, read by `report`;
 //! - [`baselines`]: the reference grid of the scripted policies;
 //! - [`validate`]: the invariants;
 //! - [`export`]: output formats of tables (aligned text, Markdown, CSV,
@@ -38,6 +40,7 @@ pub(crate) mod par;
 pub mod policy;
 pub mod report;
 pub mod rng;
+pub mod rundir;
 pub mod scenario;
 pub(crate) mod serve;
 pub mod sim;

@@ -380,6 +380,19 @@ pub(crate) fn mean_pass_hat_k(per_seed: &[(usize, usize)], k: usize) -> f64 {
     per_seed.iter().map(|&(c, r)| pass_hat_k(c, r, k)).sum::<f64>() / per_seed.len() as f64
 }
 
+/// Seed of the statistic named `label`, shifted by the user's `--seed`
+/// (`base`): each statistic has its own fixed seed, so adding a model never
+/// changes another model's interval.
+pub fn seed_for(base: u64, label: &str) -> u64 {
+    crate::hash::fnv1a64(label) ^ base.wrapping_mul(crate::hash::GOLDEN_GAMMA)
+}
+
+/// Seed of a (scenario, tier) cell's success interval: `eval`'s summary
+/// (base 0) and `report` use this one seed, so they agree digit for digit.
+pub fn cell_seed(base: u64, scenario: crate::scenario::ScenarioKind, tier: crate::scenario::Tier) -> u64 {
+    seed_for(base, &format!("{scenario}/{tier}"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

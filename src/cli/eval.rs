@@ -10,11 +10,12 @@
 //! explicitly; an existing run there with another configuration is refused.
 
 use super::{RefusedError, exit, parse_list, usage};
-use crate::eval::config::{EndpointsFile, HistoryWindow, RunConfig, Shard, sanitize_name};
+use crate::eval::config::{EndpointsFile, sanitize_name};
 use crate::eval::progress::Mode;
 use crate::eval::{EvalError, EvalOptions};
 use crate::hash::fnv1a64_hex;
 use crate::llm::{ClientConfig, RetryPolicy};
+use crate::rundir::{HistoryWindow, RunConfig, Selection, Shard};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use reqwest::header::{HeaderMap, HeaderName, HeaderValue};
 use serde_json::{Map, Value};
@@ -286,12 +287,14 @@ impl EvalArgs {
             },
             api_key_var,
             scenario_set,
-            scenarios,
-            tiers,
-            seeds: self.seeds,
-            rollouts: self.rollouts,
-            base_seed: self.seed,
-            shard,
+            selection: Selection {
+                base_seed: self.seed,
+                rollouts: self.rollouts,
+                scenarios,
+                seeds: self.seeds,
+                shard,
+                tiers,
+            },
             concurrency: self.concurrency,
             run_dir: self.output.join(run_name),
             max_total_tokens: self.max_total_tokens,

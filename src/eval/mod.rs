@@ -1,10 +1,10 @@
 //! `negotiator eval`: play episodes with a language model as the policy
 //! (SPEC section 7).
 //!
-//! Layout: [`config`] (endpoints file, run configuration and its hash),
-//! [`prompt`] (system prompt, history window), [`record`] (the
-//! `rollouts.jsonl` line), [`store`] (run directory, resume, the single
-//! writer), [`summary`] (leaderboard), [`progress`] (bar / plain lines).
+//! Layout: [`config`] (endpoints file), [`prompt`] (system prompt, history
+//! window), [`store`] (resume, the single writer), [`summary`]
+//! (leaderboard), [`progress`] (bar / plain lines). What the run directory
+//! holds is defined in [`crate::rundir`].
 //!
 //! Flow: list the selected episode keys, drop the ones `rollouts.jsonl`
 //! already holds, run the rest with at most `concurrency` episodes in flight
@@ -15,7 +15,6 @@
 pub mod config;
 pub mod progress;
 pub mod prompt;
-pub mod record;
 pub mod store;
 pub mod summary;
 
@@ -23,17 +22,19 @@ use crate::action::parse_action;
 use crate::episode::{Episode, Outcome};
 use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, LlmError, Role};
 use crate::observation::render_scene;
+use crate::rundir::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord, RolloutRecord, TurnRecord};
+use crate::rundir::{
+    self, Endpoint, Invocation, RunConfig, RunInfo, RunStatus, SCHEMA_VERSION, Selection, Settings, Totals,
+};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
-use config::{RunConfig, Shard};
 use progress::{Counters, Mode, Progress};
 use prompt::History;
-use record::{EpisodeKey, InfraErrorRecord, RolloutRecord, RolloutScalars, TurnRecord};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 use std::time::{Duration, Instant, SystemTime};
-use store::{Invocation, RunInfo, Totals, WriteMsg, Writer};
+use store::{StoreError, WriteMsg, Writer};
 use tokio::task::JoinSet;
 
 /// Everything a run needs, validated.
@@ -44,12 +45,7 @@ pub struct EvalOptions {
     /// Name of the API-key variable, for messages and run.json (never the key).
     pub api_key_var: Option<String>,
     pub scenario_set: ScenarioSet,
-    pub scenarios: Vec<ScenarioKind>,
-    pub tiers: Vec<Tier>,
-    pub seeds: u64,
-    pub rollouts: u32,
-    pub base_seed: u64,
-    pub shard: Shard,
+    pub selection: Selection,
     pub concurrency: usize,
     pub run_dir: PathBuf,
     pub max_total_tokens: Option<u64>,
@@ -60,19 +56,24 @@ pub struct EvalOptions {
 }
 
 impl EvalOptions {
-    /// The selected keys in a fixed order: scenario, tier, seed, rollout.
-    pub fn selection(&self) -> Vec<EpisodeKey> {
-        let mut keys = Vec::new();
-        for &scenario in &self.scenarios {
-            for &tier in &self.tiers {
-                for i in (0..self.seeds).filter(|i| self.shard.contains(*i)) {
-                    for rollout in 0..self.rollouts {
-                        keys.push(EpisodeKey { scenario, tier, seed: self.base_seed.wrapping_add(i), rollout });
-                    }
-                }
-            }
+    /// run.json's `endpoint`: names only, never the key or header values.
+    fn endpoint(&self) -> Endpoint {
+        Endpoint {
+            api_key_env: self.api_key_var.clone(),
+            base_url: self.client.base_url.clone(),
+            header_names: self.client.headers.keys().map(|k| k.as_str().to_string()).collect(),
         }
-        keys
+    }
+
+    fn settings(&self) -> Settings {
+        Settings {
+            backoff_base_ms: self.client.retry.base.as_millis() as u64,
+            backoff_max_s: self.client.retry.max_backoff.as_secs_f64(),
+            concurrency: self.concurrency,
+            max_retries: self.client.retry.max_retries,
+            max_total_tokens: self.max_total_tokens,
+            request_timeout_s: self.client.request_timeout.as_secs_f64(),
+        }
     }
 }
 
@@ -99,7 +100,7 @@ const OUTAGE_STREAK: u32 = 8;
 #[derive(Debug, thiserror::Error)]
 pub enum EvalError {
     #[error(transparent)]
-    Store(#[from] store::StoreError),
+    Store(#[from] StoreError),
     #[error("{0}")]
     Refused(String),
     #[error("{0}")]
@@ -110,8 +111,14 @@ pub enum EvalError {
     Task(String),
 }
 
+impl From<rundir::RunDirError> for EvalError {
+    fn from(e: rundir::RunDirError) -> Self {
+        EvalError::Store(e.into())
+    }
+}
+
 /// A finished episode's summary scalars and its line, or why it did not finish.
-type EpisodeResult = Result<(RolloutScalars, String), EpisodeError>;
+type EpisodeResult = Result<(EpisodeScalars, String), EpisodeError>;
 
 /// Why an episode did not finish.
 enum EpisodeError {
@@ -169,11 +176,10 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     let started = Instant::now();
     let started_at = now_rfc3339();
     let dir = options.run_dir.clone();
-    std::fs::create_dir_all(&dir)
-        .map_err(|source| store::StoreError::Io { path: dir.display().to_string(), source })?;
+    std::fs::create_dir_all(&dir).map_err(|source| StoreError::Io { path: dir.display().to_string(), source })?;
 
-    let previous = store::read_run_info(&dir)?;
-    let mut loaded = store::load_rollouts(&dir.join(store::ROLLOUTS))?;
+    let previous = rundir::read_run_info(&dir)?;
+    let mut loaded = store::load_rollouts(&dir.join(rundir::ROLLOUTS))?;
     store::check_config(&dir, previous.as_ref(), &loaded, &options.config)?;
     let quiet = options.progress == Mode::Quiet;
     if !quiet {
@@ -181,11 +187,11 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
             eprintln!("note: cut off a torn last line ({} bytes) left by an interrupted run", loaded.torn_bytes);
         }
         if loaded.bad_lines > 0 {
-            eprintln!("warning: {} unreadable line(s) in {} are ignored", loaded.bad_lines, store::ROLLOUTS);
+            eprintln!("warning: {} unreadable line(s) in {} are ignored", loaded.bad_lines, rundir::ROLLOUTS);
         }
     }
 
-    let selection = options.selection();
+    let selection = options.selection.keys();
     let todo: Vec<EpisodeKey> = selection.iter().copied().filter(|k| !loaded.finished.contains_key(k)).collect();
     if !quiet {
         let done = selection.len() - todo.len();
@@ -203,29 +209,10 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     let mut invocation = Invocation {
         started_at: started_at.clone(),
         ended_at: None,
-        status: "running".into(),
-        selection: serde_json::json!({
-            "scenarios": options.scenarios.iter().map(|s| s.name()).collect::<Vec<_>>(),
-            "tiers": options.tiers.iter().map(|t| t.number()).collect::<Vec<_>>(),
-            "seeds": options.seeds,
-            "rollouts": options.rollouts,
-            "base_seed": options.base_seed,
-            "shard": options.shard.to_string(),
-        }),
-        endpoint: serde_json::json!({
-            "base_url": options.client.base_url,
-            "api_key_env": options.api_key_var,
-            // Names only: values may carry credentials.
-            "header_names": options.client.headers.keys().map(|k| k.as_str()).collect::<Vec<_>>(),
-        }),
-        settings: serde_json::json!({
-            "concurrency": options.concurrency,
-            "max_retries": options.client.retry.max_retries,
-            "backoff_base_ms": options.client.retry.base.as_millis() as u64,
-            "backoff_max_s": options.client.retry.max_backoff.as_secs_f64(),
-            "request_timeout_s": options.client.request_timeout.as_secs_f64(),
-            "max_total_tokens": options.max_total_tokens,
-        }),
+        status: RunStatus::Running,
+        selection: options.selection.clone(),
+        endpoint: options.endpoint(),
+        settings: options.settings(),
         episodes: 0,
         infra_errors: 0,
         retries: 0,
@@ -235,6 +222,7 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     };
     let prev_totals = previous.as_ref().map(|p| p.totals.clone()).unwrap_or_default();
     let mut info = RunInfo {
+        schema_version: SCHEMA_VERSION,
         run_name,
         config: options.config.clone(),
         config_hash: hash.clone(),
@@ -246,7 +234,7 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
         last_invocation: invocation.clone(),
         totals: Totals { episodes: loaded.finished.len() as u64, ..prev_totals.clone() },
     };
-    store::write_run_info(&dir, &info)?;
+    rundir::write_run_info(&dir, &info)?;
 
     let client = Client::new(options.client.clone()).map_err(|e| EvalError::Client(e.to_string()))?;
     let counters = Arc::new(Counters::default());
@@ -331,6 +319,7 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
                 counters.done.fetch_add(1, Relaxed);
                 invocation.infra_errors += 1;
                 let rec = InfraErrorRecord {
+                    schema_version: SCHEMA_VERSION,
                     scenario: key.scenario,
                     tier: key.tier,
                     seed: key.seed,
@@ -369,7 +358,7 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     invocation.ended_at = Some(now_rfc3339());
 
     // Summary over every finished episode of the selection, in key order.
-    let mut by_cell: Vec<(ScenarioKind, Tier, Vec<RolloutScalars>, usize)> = Vec::new();
+    let mut by_cell: Vec<(ScenarioKind, Tier, Vec<EpisodeScalars>, usize)> = Vec::new();
     let mut index: HashMap<(ScenarioKind, Tier), usize> = HashMap::new();
     for key in &selection {
         let i = *index.entry((key.scenario, key.tier)).or_insert_with(|| {
@@ -384,14 +373,13 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     let summary = summary::summarize(&ctx.options.config.model, &by_cell);
     let missing = summary.missing;
     invocation.status = match (&fatal, interrupted, missing) {
-        (Some(LlmError::Refused { .. }), _, _) => "refused",
-        (Some(_), _, _) => "failed",
-        _ if failure.is_some() || write_result.is_err() => "failed",
-        (None, true, _) => "interrupted",
-        (None, false, 0) => "finished",
-        _ => "incomplete",
-    }
-    .into();
+        (Some(LlmError::Refused { .. }), _, _) => RunStatus::Refused,
+        (Some(_), _, _) => RunStatus::Failed,
+        _ if failure.is_some() || write_result.is_err() => RunStatus::Failed,
+        (None, true, _) => RunStatus::Interrupted,
+        (None, false, 0) => RunStatus::Finished,
+        _ => RunStatus::Incomplete,
+    };
     info.totals = Totals {
         episodes: loaded.finished.len() as u64,
         infra_errors: prev_totals.infra_errors + invocation.infra_errors,
@@ -402,7 +390,7 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     };
     info.ended_at = invocation.ended_at.clone();
     info.last_invocation = invocation;
-    store::write_run_info(&dir, &info)?;
+    rundir::write_run_info(&dir, &info)?;
     write_result?;
     if let Some(f) = failure {
         return Err(f);
@@ -425,8 +413,8 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
         });
     }
     let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
-    store::write_atomic(&dir.join("summary.json"), &json)?;
-    store::write_atomic(&dir.join("summary.md"), summary::render(&summary).as_bytes())?;
+    rundir::write_atomic(&dir.join("summary.json"), &json)?;
+    rundir::write_atomic(&dir.join("summary.md"), summary::render(&summary).as_bytes())?;
     Ok(RunOutcome { summary, run_dir: dir, missing, stopped_by_budget, stopped_by_outage, interrupted })
 }
 
@@ -479,7 +467,7 @@ impl Scheduler {
     }
 }
 
-fn loaded_tokens(finished: &HashMap<EpisodeKey, RolloutScalars>) -> u64 {
+fn loaded_tokens(finished: &HashMap<EpisodeKey, EpisodeScalars>) -> u64 {
     finished.values().map(|s| s.tokens).sum()
 }
 
@@ -555,6 +543,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         t.after_resolution = d.after_resolution;
     }
     let record = RolloutRecord {
+        schema_version: SCHEMA_VERSION,
         model: opts.config.model.clone(),
         config_hash: ctx.hash.clone(),
         scenario: key.scenario,
@@ -579,7 +568,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         trajectory: graded.trajectory,
     };
     let line = serde_json::to_string(&record).expect("a rollout record serialises");
-    Ok((RolloutScalars::from(&record), line))
+    Ok((EpisodeScalars::from(&record), line))
 }
 
 #[cfg(test)]

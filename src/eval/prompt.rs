@@ -7,8 +7,8 @@
 //! other road user's possible intentions or how they show: inferring them is
 //! the task.
 
-use super::config::HistoryWindow;
 use crate::llm::{ChatMessage, Role};
+use crate::rundir::HistoryWindow;
 
 pub const SYSTEM_PROMPT: &str = "\
 You are the driver of an automated car (the ego vehicle) in a short traffic situation. \

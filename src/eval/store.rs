@@ -10,17 +10,13 @@
 //! finishes (a `kill -9` loses nothing written); the file is fsynced when the
 //! run ends.
 
-use super::config::RunConfig;
-use super::record::{EpisodeKey, RolloutScalars};
-use serde::{Deserialize, Serialize};
+use crate::rundir::lines::read_rollouts;
+use crate::rundir::record::{EpisodeKey, EpisodeScalars};
+use crate::rundir::{ERRORS, ROLLOUTS, RunConfig, RunDirError, RunInfo};
 use std::collections::HashMap;
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
-
-pub const ROLLOUTS: &str = "rollouts.jsonl";
-pub const ERRORS: &str = "errors.jsonl";
-pub const RUN_JSON: &str = "run.json";
 
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
@@ -35,68 +31,23 @@ pub enum StoreError {
     BadRunJson { path: String, message: String },
 }
 
+impl From<RunDirError> for StoreError {
+    fn from(e: RunDirError) -> Self {
+        match e {
+            RunDirError::Io { path, source } => StoreError::Io { path, source },
+            RunDirError::BadRunJson { path, message } => StoreError::BadRunJson { path, message },
+        }
+    }
+}
+
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
     move |source| StoreError::Io { path: path.display().to_string(), source }
-}
-
-/// Per-invocation facts kept in run.json (the last invocation's).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Invocation {
-    pub started_at: String,
-    pub ended_at: Option<String>,
-    /// `running`, `finished`, `incomplete` (episodes missing),
-    /// `interrupted`, `refused` or `failed`.
-    pub status: String,
-    pub selection: serde_json::Value,
-    pub endpoint: serde_json::Value,
-    pub settings: serde_json::Value,
-    pub episodes: u64,
-    pub infra_errors: u64,
-    pub retries: u64,
-    pub tokens: u64,
-    /// Decision turns answered (requests that succeeded).
-    #[serde(default)]
-    pub turns: u64,
-    pub wall_s: f64,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct Totals {
-    /// Finished episodes in rollouts.jsonl.
-    pub episodes: u64,
-    /// Rollouts given up as infrastructure errors, over all invocations
-    /// (each is re-run by the next invocation).
-    pub infra_errors: u64,
-    /// Episodes of the last selection still missing.
-    pub missing: u64,
-    /// Retried requests, over all invocations.
-    pub retries: u64,
-    /// Tokens of the finished episodes.
-    pub tokens: u64,
-    /// Wall time, over all invocations (s).
-    pub wall_s: f64,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunInfo {
-    pub run_name: String,
-    pub config: RunConfig,
-    pub config_hash: String,
-    pub crate_version: String,
-    pub git_revision: String,
-    /// First invocation's start.
-    pub started_at: String,
-    /// Last invocation's end.
-    pub ended_at: Option<String>,
-    pub invocations: u32,
-    pub last_invocation: Invocation,
-    pub totals: Totals,
 }
 
 /// What a resume found in `rollouts.jsonl`.
 #[derive(Debug, Default)]
 pub struct Loaded {
-    pub finished: HashMap<EpisodeKey, RolloutScalars>,
+    pub finished: HashMap<EpisodeKey, EpisodeScalars>,
     /// Bytes of a torn last line that were cut off.
     pub torn_bytes: u64,
     /// Complete lines that could not be read (kept in the file, ignored).
@@ -110,61 +61,22 @@ pub struct Loaded {
 /// key appears twice (two processes on one directory), the first line
 /// counts.
 pub fn load_rollouts(path: &Path) -> Result<Loaded, StoreError> {
-    let mut loaded = Loaded::default();
-    let file = match File::open(path) {
-        Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(loaded),
-        Err(e) => return Err(io(path)(e)),
-    };
-    let mut reader = BufReader::with_capacity(1 << 20, file);
-    let mut buf = Vec::new();
-    let mut good_end: u64 = 0;
-    let mut offset: u64 = 0;
-    loop {
-        buf.clear();
-        let n = reader.read_until(b'\n', &mut buf).map_err(io(path))?;
-        if n == 0 {
-            break;
-        }
-        offset += n as u64;
-        if buf.last() != Some(&b'\n') {
-            // A line the writer never finished.
-            loaded.torn_bytes = n as u64;
-            break;
-        }
-        good_end = offset;
-        #[derive(Deserialize)]
-        struct HashOnly {
-            config_hash: Option<String>,
-        }
-        match serde_json::from_slice::<RolloutScalars>(&buf) {
-            Ok(s) => {
-                if loaded.first_hash.is_none() {
-                    loaded.first_hash = serde_json::from_slice::<HashOnly>(&buf).ok().and_then(|h| h.config_hash);
-                }
-                loaded.finished.entry(s.key()).or_insert(s);
-            }
-            Err(_) if buf.iter().all(u8::is_ascii_whitespace) => {}
-            Err(_) => loaded.bad_lines += 1,
-        }
-    }
-    if loaded.torn_bytes > 0 {
+    let mut finished: HashMap<EpisodeKey, EpisodeScalars> = HashMap::new();
+    let read = read_rollouts(path, |s, _| {
+        finished.entry(s.key()).or_insert(s);
+    })
+    .map_err(io(path))?;
+    if let Some(torn) = read.torn {
         let f = OpenOptions::new().write(true).open(path).map_err(io(path))?;
-        f.set_len(good_end).map_err(io(path))?;
+        f.set_len(torn.offset).map_err(io(path))?;
         f.sync_all().map_err(io(path))?;
     }
-    Ok(loaded)
-}
-
-pub fn read_run_info(dir: &Path) -> Result<Option<RunInfo>, StoreError> {
-    let path = dir.join(RUN_JSON);
-    match std::fs::read_to_string(&path) {
-        Ok(text) => serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| StoreError::BadRunJson { path: path.display().to_string(), message: e.to_string() }),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(io(&path)(e)),
-    }
+    Ok(Loaded {
+        finished,
+        torn_bytes: read.torn.map_or(0, |t| u64::from(t.len)),
+        bad_lines: read.bad_lines.len(),
+        first_hash: read.config_hash,
+    })
 }
 
 /// Refuse a directory whose run was started with another configuration.
@@ -184,18 +96,6 @@ pub fn check_config(
         },
     };
     Err(StoreError::ConfigChanged { dir: dir.display().to_string(), changes })
-}
-
-/// Write `run.json` atomically (temporary file, then rename), so a kill
-/// never leaves half a file.
-pub fn write_run_info(dir: &Path, info: &RunInfo) -> Result<(), StoreError> {
-    write_atomic(&dir.join(RUN_JSON), &serde_json::to_vec_pretty(info).expect("run info serialises"))
-}
-
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, bytes).map_err(io(&tmp))?;
-    std::fs::rename(&tmp, path).map_err(io(path))
 }
 
 pub enum WriteMsg {
@@ -262,20 +162,26 @@ impl Writer {
 mod tests {
     use super::*;
     use crate::episode::Outcome;
-    use crate::scenario::{ScenarioKind, Tier};
+    use crate::rundir::{Invocation, RunStatus, Selection, Shard, Totals, read_run_info, write_run_info};
+    use crate::scenario::{Disposition, ScenarioKind, Tier};
 
     fn line(seed: u64, rollout: u32) -> String {
-        let s = RolloutScalars {
+        let s = EpisodeScalars {
+            schema_version: crate::rundir::SCHEMA_VERSION,
             scenario: ScenarioKind::YieldStandoff,
             tier: Tier::T1,
             seed,
             rollout,
+            disposition: Disposition::Committed,
             outcome: Outcome::Success,
             reward: 0.9,
             decision_correctness: 1.0,
             turns_taken: 10,
             parse_error_turns: 0,
             tokens: 100,
+            prompt_tokens: 90,
+            completion_tokens: 10,
+            latency_ms: 5,
             retries: 0,
         };
         let mut v = serde_json::to_value(s).unwrap();
@@ -325,7 +231,7 @@ mod tests {
 
     #[test]
     fn a_changed_config_is_refused_with_its_changes() {
-        use super::super::config::HistoryWindow;
+        use crate::rundir::HistoryWindow;
         let dir = tempdir("config");
         let config = RunConfig {
             model: "m".into(),
@@ -335,6 +241,7 @@ mod tests {
             scenarios_hash: "s".into(),
         };
         let info = RunInfo {
+            schema_version: crate::rundir::SCHEMA_VERSION,
             run_name: "r".into(),
             config: config.clone(),
             config_hash: config.hash(),
@@ -346,8 +253,15 @@ mod tests {
             last_invocation: Invocation {
                 started_at: "t".into(),
                 ended_at: None,
-                status: "running".into(),
-                selection: Default::default(),
+                status: RunStatus::Running,
+                selection: Selection {
+                    base_seed: 0,
+                    rollouts: 1,
+                    scenarios: vec![ScenarioKind::YieldStandoff],
+                    seeds: 2,
+                    shard: Shard::WHOLE,
+                    tiers: vec![Tier::T1],
+                },
                 endpoint: Default::default(),
                 settings: Default::default(),
                 episodes: 0,

@@ -2,10 +2,10 @@
 //! of the selection. Infrastructure errors are excluded from every score and
 //! shown as their own column.
 
-use super::record::RolloutScalars;
 use crate::episode::Outcome;
+use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
-use crate::stats::{Interval, bootstrap_mean_ci, mean};
+use crate::stats::{Interval, bootstrap_mean_ci, cell_seed, mean};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 
@@ -42,15 +42,9 @@ pub struct Summary {
     pub missing: usize,
 }
 
-/// Bootstrap seed of a cell: fixed, so a summary is a pure function of the
-/// episodes (a resumed run's summary equals an uninterrupted one's).
-fn cell_seed(scenario: ScenarioKind, tier: Tier) -> u64 {
-    crate::hash::fnv1a64(&format!("{scenario}/{tier}"))
-}
-
 /// `cells`: for each (scenario, tier) of the selection, the finished
 /// episodes' scalars in key order and the number of missing episodes.
-pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<RolloutScalars>, usize)]) -> Summary {
+pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>, usize)]) -> Summary {
     let mut out = Vec::with_capacity(cells.len());
     for (scenario, tier, eps, missing) in cells {
         let n = eps.len();
@@ -65,7 +59,9 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<RolloutScalars>,
             tier: *tier,
             episodes: n,
             missing: *missing,
-            success: bootstrap_mean_ci(&success, RESAMPLES, cell_seed(*scenario, *tier)),
+            success: // The cell's fixed seed (base 0): a summary is a pure function of the
+            // episodes, and equals the report's interval for the cell.
+            bootstrap_mean_ci(&success, RESAMPLES, cell_seed(0, *scenario, *tier)),
             collision_rate: rate(Outcome::Collision),
             timeout_rate: rate(Outcome::Timeout),
             mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
@@ -136,12 +132,14 @@ pub fn render(summary: &Summary) -> String {
 mod tests {
     use super::*;
 
-    fn ep(seed: u64, outcome: Outcome, parse_error_turns: u32) -> RolloutScalars {
-        RolloutScalars {
+    fn ep(seed: u64, outcome: Outcome, parse_error_turns: u32) -> EpisodeScalars {
+        EpisodeScalars {
+            schema_version: crate::rundir::SCHEMA_VERSION,
             scenario: ScenarioKind::PedestrianFeint,
             tier: Tier::T2,
             seed,
             rollout: 0,
+            disposition: crate::scenario::Disposition::Crosser,
             outcome,
             reward: match outcome {
                 Outcome::Success => 0.9,
@@ -152,6 +150,9 @@ mod tests {
             turns_taken: 10,
             parse_error_turns,
             tokens: 1000,
+            prompt_tokens: 900,
+            completion_tokens: 100,
+            latency_ms: 10,
             retries: 0,
         }
     }

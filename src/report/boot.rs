@@ -9,21 +9,10 @@
 //! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,
 //! so with one rollout per seed the two agree digit for digit.
 
-use crate::hash::{GOLDEN_GAMMA, fnv1a64};
-use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, StatsError, bootstrap_mean_ci, paired_bootstrap_diff_ci, quantile};
+pub use crate::stats::{cell_seed, seed_for};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// Seed of the statistic named `label`, shifted by the user's `--seed`.
-pub fn seed_for(base: u64, label: &str) -> u64 {
-    fnv1a64(label) ^ base.wrapping_mul(GOLDEN_GAMMA)
-}
-
-/// Seed of a (scenario, tier) cell; with base 0 it is `eval`'s summary seed.
-pub fn cell_seed(base: u64, scenario: ScenarioKind, tier: Tier) -> u64 {
-    seed_for(base, &format!("{scenario}/{tier}"))
-}
 
 fn constant(xs: &[f64]) -> Option<f64> {
     let first = *xs.first()?;
@@ -153,14 +142,6 @@ pub fn clustered_mean_of_means_ci(
 mod tests {
     use super::*;
     use crate::stats::bootstrap_clustered_mean_ci;
-
-    #[test]
-    fn cell_seed_is_the_summary_seed() {
-        // eval's summary: FNV-1a of "scenario/tier".
-        let expected = fnv1a64("yield_standoff/1");
-        assert_eq!(cell_seed(0, ScenarioKind::YieldStandoff, Tier::T1), expected);
-        assert_ne!(cell_seed(1, ScenarioKind::YieldStandoff, Tier::T1), expected);
-    }
 
     #[test]
     fn constant_samples_skip_resampling_with_the_same_answer() {

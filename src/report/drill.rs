@@ -12,8 +12,8 @@
 use super::ReportError;
 use super::load::{Dataset, Episode};
 use crate::episode::Outcome;
-use crate::eval::record::RolloutRecord;
 use crate::par::par_map;
+use crate::rundir::record::RolloutRecord;
 use crate::scenario::ScenarioKind;
 use serde::Serialize;
 use std::collections::HashMap;

@@ -7,22 +7,16 @@
 //! joined; the same (scenario, tier, seed, rollout) key twice within a
 //! model is an error naming both lines, never a double count.
 //!
-//! Speed: every line is read (the file is streamed through a 1 MiB
-//! buffer), but only its head is parsed. Records written by `eval` put the
-//! scalars before the transcript, so the line is cut at its top-level
-//! `,"turns":` key and the head (closed with `}`) is deserialized; a line
-//! that does not allow this is parsed whole. Files are read in parallel.
+//! The files are read through [`crate::rundir`] (which parses only the
+//! head of each line); files are read in parallel.
 
 use super::ReportError;
-use crate::episode::Outcome;
-use crate::eval::record::{EpisodeKey, InfraErrorRecord};
-use crate::eval::store::{self, ERRORS, ROLLOUTS, RUN_JSON, RunInfo, StoreError};
 use crate::par::par_map;
-use crate::scenario::{Disposition, ScenarioKind, Tier};
-use serde::{Deserialize, Serialize};
+use crate::rundir::lines::{read_infra_errors, read_rollouts};
+use crate::rundir::record::{EpisodeKey, EpisodeScalars};
+use crate::rundir::{ERRORS, ROLLOUTS, RUN_JSON, RunDirError, RunInfo, Selection};
+use serde::Serialize;
 use std::collections::{BTreeMap, HashSet};
-use std::fs::File;
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 /// Where an episode's line is, for error messages and for re-reading its
@@ -37,100 +31,20 @@ pub struct Source {
     pub len: u32,
 }
 
-/// The per-episode scalars the report needs.
+/// One episode as the report sees it: the line's scalars and where the
+/// line is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Episode {
-    pub scenario: ScenarioKind,
-    pub tier: Tier,
-    pub seed: u64,
-    pub rollout: u32,
-    pub disposition: Disposition,
-    pub outcome: Outcome,
-    pub reward: f64,
-    pub decision_correctness: f64,
-    pub turns_taken: u32,
-    pub parse_error_turns: u32,
-    pub tokens: u64,
-    pub prompt_tokens: u64,
-    pub completion_tokens: u64,
-    pub latency_ms: u64,
-    pub retries: u32,
+    pub scalars: EpisodeScalars,
     pub source: Source,
 }
 
-impl Episode {
-    pub fn key(&self) -> EpisodeKey {
-        EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
-    }
-
-    pub fn success(&self) -> bool {
-        self.outcome == Outcome::Success
-    }
-}
-
-/// What a rollouts.jsonl line is read as (serde skips every other field).
-#[derive(Debug, Deserialize)]
-struct LineScalars {
-    scenario: ScenarioKind,
-    tier: Tier,
-    seed: u64,
-    rollout: u32,
-    disposition: Disposition,
-    outcome: Outcome,
-    reward: f64,
-    decision_correctness: f64,
-    turns_taken: u32,
-    parse_error_turns: u32,
-    tokens: u64,
-    #[serde(default)]
-    prompt_tokens: u64,
-    #[serde(default)]
-    completion_tokens: u64,
-    #[serde(default)]
-    latency_ms: u64,
-    #[serde(default)]
-    retries: u32,
-}
-
-#[derive(Debug, Deserialize)]
-struct LineIdentity {
-    model: String,
-    #[serde(default)]
-    config_hash: Option<String>,
-}
-
-/// The episode selection of an `eval` invocation (run.json).
-#[derive(Debug, Clone, Deserialize)]
-struct Selection {
-    base_seed: u64,
-    rollouts: u32,
-    scenarios: Vec<ScenarioKind>,
-    seeds: u64,
-    #[serde(default)]
-    shard: Option<String>,
-    tiers: Vec<Tier>,
-}
-
-impl Selection {
-    fn keys(&self) -> Vec<EpisodeKey> {
-        let (k, n) = self
-            .shard
-            .as_deref()
-            .and_then(|s| s.split_once('/'))
-            .and_then(|(k, n)| Some((k.trim().parse::<u64>().ok()?, n.trim().parse::<u64>().ok()?)))
-            .filter(|&(k, n)| n >= 1 && (1..=n).contains(&k))
-            .unwrap_or((1, 1));
-        let mut out = Vec::new();
-        for &scenario in &self.scenarios {
-            for &tier in &self.tiers {
-                for i in (0..self.seeds).filter(|i| i % n == k - 1) {
-                    for rollout in 0..self.rollouts {
-                        out.push(EpisodeKey { scenario, tier, seed: self.base_seed.wrapping_add(i), rollout });
-                    }
-                }
-            }
-        }
-        out
+/// The report reads the scalars everywhere (`e.tier`, `e.success()`); the
+/// source is an annotation for messages and transcripts.
+impl std::ops::Deref for Episode {
+    type Target = EpisodeScalars;
+    fn deref(&self) -> &EpisodeScalars {
+        &self.scalars
     }
 }
 
@@ -152,11 +66,9 @@ pub struct RunSource {
     /// `selection.shard` of the last invocation, e.g. "1/2".
     pub shard: Option<String>,
     #[serde(skip)]
-    pub(crate) selection: Option<serde_json::Value>,
+    pub(crate) selection: Option<Selection>,
     #[serde(skip)]
     pub(crate) infra_keys: Vec<EpisodeKey>,
-    #[serde(skip)]
-    pub(crate) rollouts_declared: Option<u32>,
 }
 
 impl RunSource {
@@ -252,111 +164,25 @@ struct Parsed {
     identity: Option<(String, Option<String>)>,
 }
 
-/// Byte position of the top-level `,"turns":` key, if the line has one.
-fn turns_key(line: &[u8]) -> Option<usize> {
-    const KEY: &[u8] = b",\"turns\":";
-    line.windows(KEY.len()).position(|w| w == KEY)
-}
-
-fn parse_line(line: &[u8], scratch: &mut Vec<u8>) -> Option<LineScalars> {
-    // Fast path: the head before the transcript, closed. A cut inside a
-    // nested value leaves unbalanced braces and fails, falling through.
-    if let Some(cut) = turns_key(line) {
-        scratch.clear();
-        scratch.extend_from_slice(&line[..cut]);
-        scratch.push(b'}');
-        if let Ok(s) = serde_json::from_slice::<LineScalars>(scratch) {
-            return Some(s);
-        }
-    }
-    serde_json::from_slice::<LineScalars>(line).ok()
-}
-
 /// Stream one rollouts.jsonl. A missing file is an empty run.
 fn parse_rollouts(path: &Path, run: u32) -> Result<Parsed, ReportError> {
-    let mut parsed = Parsed::default();
-    let file = match File::open(path) {
-        Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(parsed),
-        Err(e) => return Err(io_err(path)(e)),
-    };
-    let mut reader = BufReader::with_capacity(1 << 20, file);
-    let mut buf = Vec::with_capacity(1 << 16);
-    let mut scratch = Vec::with_capacity(4096);
-    let mut offset: u64 = 0;
-    let mut line_no: u32 = 0;
-    loop {
-        buf.clear();
-        let n = reader.read_until(b'\n', &mut buf).map_err(io_err(path))?;
-        if n == 0 {
-            break;
-        }
-        line_no += 1;
-        let start = offset;
-        offset += n as u64;
-        if buf.last() != Some(&b'\n') {
-            // A line the writer never finished (eval cuts it off on resume).
-            parsed.torn = true;
-            break;
-        }
-        let line = &buf[..n - 1];
-        if line.iter().all(u8::is_ascii_whitespace) {
-            continue;
-        }
-        match parse_line(line, &mut scratch) {
-            Some(s) => {
-                if parsed.identity.is_none() {
-                    // Once per file: the whole line.
-                    parsed.identity =
-                        serde_json::from_slice::<LineIdentity>(line).ok().map(|i| (i.model, i.config_hash));
-                }
-                parsed.episodes.push(Episode {
-                    scenario: s.scenario,
-                    tier: s.tier,
-                    seed: s.seed,
-                    rollout: s.rollout,
-                    disposition: s.disposition,
-                    outcome: s.outcome,
-                    reward: s.reward,
-                    decision_correctness: s.decision_correctness,
-                    turns_taken: s.turns_taken,
-                    parse_error_turns: s.parse_error_turns,
-                    tokens: s.tokens,
-                    prompt_tokens: s.prompt_tokens,
-                    completion_tokens: s.completion_tokens,
-                    latency_ms: s.latency_ms,
-                    retries: s.retries,
-                    source: Source { run, line: line_no, offset: start, len: (n - 1) as u32 },
-                });
-            }
-            None => parsed.bad_lines.push(line_no),
-        }
-    }
-    Ok(parsed)
-}
-
-fn parse_errors_file(path: &Path) -> Result<InfraLines, ReportError> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((0, Vec::new())),
-        Err(e) => return Err(io_err(path)(e)),
-    };
-    let mut lines = 0;
-    let mut keys = Vec::new();
-    for line in text.lines().filter(|l| !l.trim().is_empty()) {
-        lines += 1;
-        if let Ok(r) = serde_json::from_str::<InfraErrorRecord>(line) {
-            keys.push(EpisodeKey { scenario: r.scenario, tier: r.tier, seed: r.seed, rollout: r.rollout });
-        }
-    }
-    Ok((lines, keys))
+    let mut episodes = Vec::new();
+    let read = read_rollouts(path, |scalars, at| {
+        episodes.push(Episode { scalars, source: Source { run, line: at.line, offset: at.offset, len: at.len } });
+    })
+    .map_err(io_err(path))?;
+    Ok(Parsed {
+        episodes,
+        bad_lines: read.bad_lines,
+        torn: read.torn.is_some(),
+        identity: read.model.map(|m| (m, read.config_hash)),
+    })
 }
 
 fn read_info(dir: &Path) -> Result<Option<RunInfo>, ReportError> {
-    store::read_run_info(dir).map_err(|e| match e {
-        StoreError::BadRunJson { path, message } => ReportError::BadRunJson { path, message },
-        StoreError::Io { path, source } => ReportError::Io { path, source },
-        other => ReportError::Io { path: dir.display().to_string(), source: std::io::Error::other(other.to_string()) },
+    crate::rundir::read_run_info(dir).map_err(|e| match e {
+        RunDirError::BadRunJson { path, message } => ReportError::BadRunJson { path, message },
+        RunDirError::Io { path, source } => ReportError::Io { path, source },
     })
 }
 
@@ -371,8 +197,10 @@ type InfraLines = (usize, Vec<EpisodeKey>);
 pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
     let infos: Vec<Option<RunInfo>> = dirs.iter().map(|d| read_info(d)).collect::<Result<_, _>>()?;
     let indexed: Vec<(u32, &PathBuf)> = dirs.iter().enumerate().map(|(i, d)| (i as u32, d)).collect();
-    let parsed: Vec<Result<(Parsed, InfraLines), ReportError>> =
-        par_map(&indexed, |(i, d)| Ok((parse_rollouts(&d.join(ROLLOUTS), *i)?, parse_errors_file(&d.join(ERRORS))?)));
+    let parsed: Vec<Result<(Parsed, InfraLines), ReportError>> = par_map(&indexed, |(i, d)| {
+        let errors = d.join(ERRORS);
+        Ok((parse_rollouts(&d.join(ROLLOUTS), *i)?, read_infra_errors(&errors).map_err(io_err(&errors))?))
+    });
     let mut data = Dataset::default();
     let mut per_run: Vec<Vec<Episode>> = Vec::with_capacity(dirs.len());
     for ((dir, info), p) in dirs.iter().zip(infos).zip(parsed) {
@@ -402,13 +230,8 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
                 dir.join(ROLLOUTS).display()
             ));
         }
-        let selection = info.as_ref().map(|i| i.last_invocation.selection.clone());
-        let shard = selection.as_ref().and_then(|s| s.get("shard")).and_then(|s| s.as_str()).map(str::to_string);
-        let rollouts_declared = selection
-            .as_ref()
-            .and_then(|s| s.get("rollouts"))
-            .and_then(|r| r.as_u64())
-            .and_then(|r| u32::try_from(r).ok());
+        let selection = info.map(|i| i.last_invocation.selection);
+        let shard = selection.as_ref().map(|s| s.shard.to_string());
         data.runs.push(RunSource {
             dir: dir.clone(),
             model,
@@ -420,7 +243,6 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
             shard,
             selection,
             infra_keys,
-            rollouts_declared,
         });
         let run_index = (data.runs.len() - 1) as u32;
         let mut eps = p.episodes;
@@ -463,24 +285,16 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
                 second: location(&data.runs, w[1].source),
             });
         }
-        let finished: HashSet<EpisodeKey> = episodes.iter().map(Episode::key).collect();
+        let finished: HashSet<EpisodeKey> = episodes.iter().map(|e| e.key()).collect();
         let infra: HashSet<EpisodeKey> = group
             .iter()
             .flat_map(|&i| data.runs[i].infra_keys.iter().copied())
             .filter(|k| !finished.contains(k))
             .collect();
-        let mut expected: HashSet<EpisodeKey> = HashSet::new();
-        let mut any_selection = false;
-        for &i in group {
-            if let Some(sel) =
-                data.runs[i].selection.as_ref().and_then(|v| serde_json::from_value::<Selection>(v.clone()).ok())
-            {
-                any_selection = true;
-                expected.extend(sel.keys());
-            }
-        }
-        let missing = any_selection.then(|| expected.iter().filter(|k| !finished.contains(k)).count());
-        let declared = group.iter().filter_map(|&i| data.runs[i].rollouts_declared).max();
+        let selections: Vec<&Selection> = group.iter().filter_map(|&i| data.runs[i].selection.as_ref()).collect();
+        let expected: HashSet<EpisodeKey> = selections.iter().flat_map(|s| s.keys()).collect();
+        let missing = (!selections.is_empty()).then(|| expected.iter().filter(|k| !finished.contains(k)).count());
+        let declared = selections.iter().map(|s| s.rollouts).max();
         let seen = max_rollouts_seen(&episodes);
         models.push(ModelData {
             label,
@@ -511,42 +325,4 @@ fn max_rollouts_seen(sorted: &[Episode]) -> u32 {
 
 pub fn same_unit(a: &Episode, b: &Episode) -> bool {
     a.scenario == b.scenario && a.tier == b.tier && a.seed == b.seed
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fast_path_and_fallback_agree() {
-        let head = r#"{"model":"m","config_hash":"h","scenario":"yield_standoff","tier":2,"seed":7,"rollout":1,"disposition":"committed","outcome":"timeout","reward":-0.2,"decision_correctness":0.5,"diagnostics":{"a":{"b":[1,2]}},"turns_taken":40,"parse_error_turns":3,"tokens":99"#;
-        let mut scratch = Vec::new();
-        // Transcript after the scalars: fast path.
-        let line = format!(r#"{head},"turns":[{{"scene":"x,\"turns\":[","turns":1}}],"trajectory":null}}"#);
-        let a = parse_line(line.as_bytes(), &mut scratch).unwrap();
-        assert_eq!((a.seed, a.rollout, a.parse_error_turns, a.tier), (7, 1, 3, Tier::T2));
-        // Transcript first: the cut head lacks fields, so the whole line is parsed.
-        let reordered = format!(r#"{{"turns":[],{}}}"#, &head[1..]);
-        let b = parse_line(reordered.as_bytes(), &mut scratch).unwrap();
-        assert_eq!((b.seed, b.outcome), (7, Outcome::Timeout));
-        // A nested "turns" key before the scalars' end cannot fool the cut.
-        let nested = head.replace(r#""diagnostics":{"a":{"b":[1,2]}}"#, r#""diagnostics":{"x":1,"turns":[]}"#) + "}";
-        let c = parse_line(nested.as_bytes(), &mut scratch).unwrap();
-        assert_eq!(c.tokens, 99);
-        assert!(parse_line(b"{\"seed\":1}", &mut scratch).is_none());
-    }
-
-    #[test]
-    fn selection_keys_follow_shards() {
-        let sel = Selection {
-            base_seed: 10,
-            rollouts: 2,
-            scenarios: vec![ScenarioKind::YieldStandoff],
-            seeds: 5,
-            shard: Some("2/2".into()),
-            tiers: vec![Tier::T1],
-        };
-        let seeds: Vec<(u64, u32)> = sel.keys().iter().map(|k| (k.seed, k.rollout)).collect();
-        assert_eq!(seeds, vec![(11, 0), (11, 1), (13, 0), (13, 1)]);
-    }
 }

@@ -5,11 +5,13 @@
 
 use crate::serve::{Server, negotiator, scratch};
 use negotiator::episode::Outcome;
-use negotiator::eval::config::{HistoryWindow, RunConfig};
-use negotiator::eval::record::RolloutRecord;
-use negotiator::eval::store::{Invocation, RunInfo, Totals, write_run_info};
 use negotiator::report::reference::{ReferenceCell, References};
 use negotiator::report::{self, ReportError, ReportOptions, load};
+use negotiator::rundir::record::RolloutRecord;
+use negotiator::rundir::{
+    Endpoint, HistoryWindow, Invocation, RunConfig, RunInfo, RunStatus, SCHEMA_VERSION, Selection, Settings, Totals,
+    write_run_info,
+};
 use negotiator::scenario::{ScenarioKind, Tier};
 use negotiator::stats::mcnemar_exact;
 use serde_json::{Value, json};
@@ -76,6 +78,7 @@ fn write_run(dir: &Path, spec: &RunSpec, lines: &[String]) {
     std::fs::create_dir_all(dir).unwrap();
     let cfg = config(spec.model, spec.temperature);
     let info = RunInfo {
+        schema_version: SCHEMA_VERSION,
         run_name: dir.file_name().unwrap().to_string_lossy().into(),
         config_hash: cfg.hash(),
         config: cfg,
@@ -87,11 +90,17 @@ fn write_run(dir: &Path, spec: &RunSpec, lines: &[String]) {
         last_invocation: Invocation {
             started_at: "t".into(),
             ended_at: None,
-            status: "finished".into(),
-            selection: json!({"base_seed": 0, "rollouts": spec.rollouts, "scenarios": spec.scenarios,
-                              "seeds": spec.seeds, "shard": spec.shard, "tiers": [1]}),
-            endpoint: Value::Null,
-            settings: Value::Null,
+            status: RunStatus::Finished,
+            selection: Selection {
+                base_seed: 0,
+                rollouts: spec.rollouts,
+                scenarios: spec.scenarios.to_vec(),
+                seeds: spec.seeds,
+                shard: spec.shard.parse().unwrap(),
+                tiers: vec![Tier::T1],
+            },
+            endpoint: Endpoint::default(),
+            settings: Settings::default(),
             episodes: lines.len() as u64,
             infra_errors: 0,
             retries: 0,

@@ -1,5 +1,6 @@
-//! What `rollouts.jsonl` holds: one [`RolloutRecord`] per finished episode,
-//! one JSON object per line.
+//! The lines of `rollouts.jsonl` (one [`RolloutRecord`] per finished
+//! episode) and `errors.jsonl` (one [`InfraErrorRecord`] per rollout given
+//! up), and [`EpisodeScalars`], the one read-side view of a rollout line.
 
 use crate::action::{Action, ActionParseError};
 use crate::episode::{Outcome, TrajectoryPoint};
@@ -63,9 +64,14 @@ pub struct TurnRecord {
     pub after_resolution: bool,
 }
 
-/// One finished episode.
+/// One finished episode. The scalars come before the transcript (`turns`),
+/// which readers rely on to parse only a line's head (see
+/// [`super::lines::parse_scalars`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RolloutRecord {
+    /// [`super::SCHEMA_VERSION`] when written; 0 for lines without it.
+    #[serde(default)]
+    pub schema_version: u32,
     pub model: String,
     pub config_hash: String,
     pub scenario: ScenarioKind,
@@ -105,14 +111,18 @@ impl RolloutRecord {
     }
 }
 
-/// The per-episode numbers a summary needs, read from a line without
-/// keeping its transcript in memory (serde skips the unknown fields).
+/// The per-episode numbers summaries and reports need, read from the head
+/// of a rollout line without its transcript (serde skips the other fields).
+/// Fields added after version 0 default, so old lines stay readable.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct RolloutScalars {
+pub struct EpisodeScalars {
+    #[serde(default)]
+    pub schema_version: u32,
     pub scenario: ScenarioKind,
     pub tier: Tier,
     pub seed: u64,
     pub rollout: u32,
+    pub disposition: Disposition,
     pub outcome: Outcome,
     pub reward: f64,
     pub decision_correctness: f64,
@@ -120,28 +130,43 @@ pub struct RolloutScalars {
     pub parse_error_turns: u32,
     pub tokens: u64,
     #[serde(default)]
+    pub prompt_tokens: u64,
+    #[serde(default)]
+    pub completion_tokens: u64,
+    #[serde(default)]
+    pub latency_ms: u64,
+    #[serde(default)]
     pub retries: u32,
 }
 
-impl RolloutScalars {
+impl EpisodeScalars {
     pub fn key(&self) -> EpisodeKey {
         EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
     }
+
+    pub fn success(&self) -> bool {
+        self.outcome == Outcome::Success
+    }
 }
 
-impl From<&RolloutRecord> for RolloutScalars {
+impl From<&RolloutRecord> for EpisodeScalars {
     fn from(r: &RolloutRecord) -> Self {
-        RolloutScalars {
+        EpisodeScalars {
+            schema_version: r.schema_version,
             scenario: r.scenario,
             tier: r.tier,
             seed: r.seed,
             rollout: r.rollout,
+            disposition: r.disposition,
             outcome: r.outcome,
             reward: r.reward,
             decision_correctness: r.decision_correctness,
             turns_taken: r.turns_taken,
             parse_error_turns: r.parse_error_turns,
             tokens: r.tokens,
+            prompt_tokens: r.prompt_tokens,
+            completion_tokens: r.completion_tokens,
+            latency_ms: r.latency_ms,
             retries: r.retries,
         }
     }
@@ -151,6 +176,9 @@ impl From<&RolloutRecord> for RolloutScalars {
 /// `rollouts.jsonl`, and re-run by the next invocation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InfraErrorRecord {
+    /// [`super::SCHEMA_VERSION`] when written; 0 for lines without it.
+    #[serde(default)]
+    pub schema_version: u32,
     pub scenario: ScenarioKind,
     pub tier: Tier,
     pub seed: u64,
@@ -159,4 +187,10 @@ pub struct InfraErrorRecord {
     pub turn: u32,
     pub error: String,
     pub at: String,
+}
+
+impl InfraErrorRecord {
+    pub fn key(&self) -> EpisodeKey {
+        EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
+    }
 }
