@@ -11,7 +11,8 @@
 
 use super::{RefusedError, exit, parse_list, usage};
 use crate::eval::config::{EndpointsFile, sanitize_name};
-use crate::eval::progress::Mode;
+use crate::eval::events::Reporter;
+use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::eval::{EvalError, EvalOptions};
 use crate::hash::fnv1a64_hex;
 use crate::llm::{ClientConfig, RetryPolicy};
@@ -19,6 +20,7 @@ use crate::rundir::{HistoryWindow, RunConfig, Selection, Shard};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use reqwest::header::{HeaderMap, HeaderName, HeaderValue};
 use serde_json::{Map, Value};
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -112,12 +114,28 @@ pub struct EvalArgs {
     /// Leave plan-view trajectories out of rollouts.jsonl.
     #[arg(long)]
     pub no_trajectories: bool,
-    /// Seconds between plain progress lines (when stderr is not a terminal).
+    /// Seconds between plain progress lines (--events lines, or auto when
+    /// stderr is not a terminal).
     #[arg(long, default_value_t = 5.0)]
     pub progress_interval: f64,
-    /// No progress output.
-    #[arg(long, short = 'q')]
+    /// What stderr shows while the run goes: auto (a progress bar on a
+    /// terminal, plain lines otherwise), bar, lines, json (one JSON object
+    /// per event, for other tools), or none.
+    #[arg(long, value_enum, default_value_t = Events::Auto)]
+    pub events: Events,
+    /// No progress output (the same as --events none).
+    #[arg(long, short = 'q', conflicts_with = "events")]
     pub quiet: bool,
+}
+
+/// `--events`: which reporter shows the run on stderr.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Events {
+    Auto,
+    Bar,
+    Lines,
+    Json,
+    None,
 }
 
 fn positive_secs(x: f64, flag: &str) -> anyhow::Result<Duration> {
@@ -298,16 +316,28 @@ impl EvalArgs {
             concurrency: self.concurrency,
             run_dir: self.output.join(run_name),
             max_total_tokens: self.max_total_tokens,
-            progress: Mode::detect(self.quiet),
-            progress_interval: positive_secs(self.progress_interval, "--progress-interval")?,
             trajectories: !self.no_trajectories,
+        })
+    }
+
+    /// The reporter `--events` / `--quiet` ask for.
+    fn reporter(&self) -> anyhow::Result<Box<dyn Reporter>> {
+        let interval = positive_secs(self.progress_interval, "--progress-interval")?;
+        let events = if self.quiet { Events::None } else { self.events };
+        Ok(match events {
+            Events::Auto if std::io::stderr().is_terminal() => Box::new(Bar::default()),
+            Events::Auto | Events::Lines => Box::new(Lines::new(interval)),
+            Events::Bar => Box::new(Bar::default()),
+            Events::Json => Box::new(JsonLines::stderr()),
+            Events::None => Box::new(Quiet),
         })
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let options = self.options()?;
+        let mut reporter = self.reporter()?;
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-        let outcome = match runtime.block_on(crate::eval::run(options)) {
+        let outcome = match runtime.block_on(crate::eval::run(options, reporter.as_mut())) {
             Ok(o) => o,
             Err(EvalError::Refused(msg)) => return Err(RefusedError(msg).into()),
             Err(EvalError::Store(e @ crate::eval::store::StoreError::ConfigChanged { .. })) => {
@@ -317,23 +347,18 @@ impl EvalArgs {
         };
         print!("{}", crate::eval::summary::render(&outcome.summary));
         println!("results: {}", outcome.run_dir.display());
-        if outcome.missing > 0 {
-            let why = if outcome.interrupted {
-                "interrupted".to_string()
-            } else if let Some(streak) = outcome.stopped_by_outage {
-                format!("the endpoint looks down: stopped after {streak} consecutive infrastructure errors")
-            } else if outcome.stopped_by_budget {
-                "stopped by --max-total-tokens, or infrastructure errors".to_string()
-            } else {
-                "infrastructure errors".to_string()
-            };
+        if outcome.missing == 0 {
+            return Ok(ExitCode::SUCCESS);
+        }
+        // With --events json, stderr stays JSON: the finished event says it.
+        if self.events != Events::Json {
+            let why = outcome.stop.map_or_else(|| "infrastructure errors".to_string(), |s| s.to_string());
             eprintln!(
                 "{} episode(s) missing ({why}); they are excluded from the scores above. Re-run the same command to resume them.",
                 outcome.missing
             );
-            return Ok(ExitCode::from(exit::FAILURE));
         }
-        Ok(ExitCode::SUCCESS)
+        Ok(ExitCode::from(exit::FAILURE))
     }
 }
 

@@ -3,8 +3,9 @@
 //!
 //! Layout: [`config`] (endpoints file), [`prompt`] (system prompt, history
 //! window), [`store`] (resume, the single writer), [`summary`]
-//! (leaderboard), [`progress`] (bar / plain lines). What the run directory
-//! holds is defined in [`crate::rundir`].
+//! (leaderboard), [`events`] (what a run reports, and the reporter trait),
+//! [`progress`] (the reporters: bar, plain lines, quiet, JSON lines). What
+//! the run directory holds is defined in [`crate::rundir`].
 //!
 //! Flow: list the selected episode keys, drop the ones `rollouts.jsonl`
 //! already holds, run the rest with at most `concurrency` episodes in flight
@@ -13,6 +14,7 @@
 //! selection.
 
 pub mod config;
+pub mod events;
 pub mod progress;
 pub mod prompt;
 pub mod store;
@@ -27,13 +29,14 @@ use crate::rundir::{
     self, Endpoint, Invocation, RunConfig, RunInfo, RunStatus, SCHEMA_VERSION, Selection, Settings, Totals,
 };
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
-use progress::{Counters, Mode, Progress};
+use events::{Event, Reporter, StopReason};
+use progress::Counters;
 use prompt::History;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Instant, SystemTime};
 use store::{StoreError, WriteMsg, Writer};
 use tokio::task::JoinSet;
 
@@ -49,8 +52,6 @@ pub struct EvalOptions {
     pub concurrency: usize,
     pub run_dir: PathBuf,
     pub max_total_tokens: Option<u64>,
-    pub progress: Mode,
-    pub progress_interval: Duration,
     /// Keep plan-view trajectories in each line (for plots).
     pub trajectories: bool,
 }
@@ -84,11 +85,10 @@ pub struct RunOutcome {
     pub run_dir: PathBuf,
     /// Episodes of the selection still missing (re-run the command).
     pub missing: usize,
-    pub stopped_by_budget: bool,
-    /// Stopped starting episodes after this many consecutive
-    /// infrastructure errors (the endpoint looks down).
-    pub stopped_by_outage: Option<u32>,
-    pub interrupted: bool,
+    /// As recorded in run.json.
+    pub status: RunStatus,
+    /// Why the run stopped starting episodes early, if it did.
+    pub stop: Option<StopReason>,
 }
 
 /// Consecutive infrastructure errors (no episode finishing in between)
@@ -171,42 +171,67 @@ pub fn git_revision() -> String {
         .unwrap_or_else(|| "unknown".to_string())
 }
 
-/// Run (or resume) an evaluation.
-pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
+/// Run (or resume) an evaluation, telling `reporter` what happens. The
+/// three phases are [`prepare`] (directory, resume, run.json), [`drive`]
+/// (the episodes) and [`finalize`] (totals, status, summary).
+pub async fn run(options: EvalOptions, reporter: &mut dyn Reporter) -> Result<RunOutcome, EvalError> {
+    let counters = Arc::new(Counters::default());
+    reporter.attach(counters.clone());
+    let mut run = prepare(options, counters, reporter)?;
+    let drove = drive(&mut run, reporter).await;
+    finalize(run, drove, reporter)
+}
+
+/// A run directory ready to play: resumed, checked, run.json marked running.
+struct Prepared {
+    started: Instant,
+    dir: PathBuf,
+    /// The selection's keys, in order.
+    selection: Vec<EpisodeKey>,
+    /// The keys still to play, in order.
+    todo: Vec<EpisodeKey>,
+    /// Finished episodes of the directory, this invocation's included.
+    finished: HashMap<EpisodeKey, EpisodeScalars>,
+    info: RunInfo,
+    invocation: Invocation,
+    /// run.json totals of the earlier invocations.
+    prev_totals: Totals,
+    ctx: Arc<Ctx>,
+    writer: Writer,
+}
+
+/// Open (or create) the run directory, resume what it holds, refuse a
+/// changed configuration, and record the invocation as running.
+fn prepare(options: EvalOptions, counters: Arc<Counters>, reporter: &mut dyn Reporter) -> Result<Prepared, EvalError> {
     let started = Instant::now();
     let started_at = now_rfc3339();
     let dir = options.run_dir.clone();
     std::fs::create_dir_all(&dir).map_err(|source| StoreError::Io { path: dir.display().to_string(), source })?;
 
     let previous = rundir::read_run_info(&dir)?;
-    let mut loaded = store::load_rollouts(&dir.join(rundir::ROLLOUTS))?;
+    let loaded = store::load_rollouts(&dir.join(rundir::ROLLOUTS))?;
     store::check_config(&dir, previous.as_ref(), &loaded, &options.config)?;
-    let quiet = options.progress == Mode::Quiet;
-    if !quiet {
-        if loaded.torn_bytes > 0 {
-            eprintln!("note: cut off a torn last line ({} bytes) left by an interrupted run", loaded.torn_bytes);
-        }
-        if loaded.bad_lines > 0 {
-            eprintln!("warning: {} unreadable line(s) in {} are ignored", loaded.bad_lines, rundir::ROLLOUTS);
-        }
+    let run_dir = dir.display().to_string();
+    if previous.is_some() || !loaded.finished.is_empty() || loaded.torn_bytes > 0 || loaded.bad_lines > 0 {
+        reporter.event(&Event::Resumed {
+            run_dir: run_dir.clone(),
+            finished: loaded.finished.len(),
+            torn_bytes: loaded.torn_bytes,
+            bad_lines: loaded.bad_lines,
+        });
     }
 
     let selection = options.selection.keys();
     let todo: Vec<EpisodeKey> = selection.iter().copied().filter(|k| !loaded.finished.contains_key(k)).collect();
-    if !quiet {
-        let done = selection.len() - todo.len();
-        eprintln!(
-            "run directory {}: {} episodes selected, {} already finished, {} to run",
-            dir.display(),
-            selection.len(),
-            done,
-            todo.len()
-        );
-    }
+    reporter.event(&Event::Planned {
+        run_dir,
+        selected: selection.len(),
+        finished: selection.len() - todo.len(),
+        to_run: todo.len(),
+    });
 
     let hash = options.config.hash();
-    let run_name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut invocation = Invocation {
+    let invocation = Invocation {
         started_at: started_at.clone(),
         ended_at: None,
         status: RunStatus::Running,
@@ -221,14 +246,14 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
         wall_s: 0.0,
     };
     let prev_totals = previous.as_ref().map(|p| p.totals.clone()).unwrap_or_default();
-    let mut info = RunInfo {
+    let info = RunInfo {
         schema_version: SCHEMA_VERSION,
-        run_name,
+        run_name: dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
         config: options.config.clone(),
         config_hash: hash.clone(),
         crate_version: env!("CARGO_PKG_VERSION").to_string(),
         git_revision: git_revision(),
-        started_at: previous.as_ref().map(|p| p.started_at.clone()).unwrap_or_else(|| started_at.clone()),
+        started_at: previous.as_ref().map(|p| p.started_at.clone()).unwrap_or(started_at),
         ended_at: None,
         invocations: previous.as_ref().map_or(0, |p| p.invocations) + 1,
         last_invocation: invocation.clone(),
@@ -237,47 +262,82 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
     rundir::write_run_info(&dir, &info)?;
 
     let client = Client::new(options.client.clone()).map_err(|e| EvalError::Client(e.to_string()))?;
-    let counters = Arc::new(Counters::default());
-    let progress = Progress::start(options.progress, todo.len() as u64, counters.clone(), options.progress_interval);
-    let concurrency = options.concurrency.max(1);
-    let budget = options.max_total_tokens;
     let ctx = Arc::new(Ctx {
         client,
         system: ChatMessage::new(Role::System, prompt::SYSTEM_PROMPT),
         hash,
-        counters: counters.clone(),
+        counters,
         options,
     });
     let writer = Writer::start(&dir)?;
+    Ok(Prepared {
+        started,
+        dir,
+        selection,
+        todo,
+        finished: loaded.finished,
+        info,
+        invocation,
+        prev_totals,
+        ctx,
+        writer,
+    })
+}
 
-    let mut pending = Scheduler::new(todo);
-    let mut set: JoinSet<(EpisodeKey, EpisodeResult)> = JoinSet::new();
-    let mut tokens_spent: u64 = 0;
-    let mut stopped_by_budget = false;
-    let mut infra_streak: u32 = 0;
+/// How [`drive`] ended.
+struct Drove {
+    stop: Option<StopReason>,
+    /// The endpoint refused or rejected a request.
+    fatal: Option<LlmError>,
+    /// An episode task failed.
+    failure: Option<EvalError>,
+}
+
+/// Record `reason` (and report it) unless a more serious one already holds.
+fn stop(drove: &mut Drove, reason: StopReason, reporter: &mut dyn Reporter) {
+    if reason.outranks(drove.stop) {
+        drove.stop = Some(reason);
+        reporter.event(&Event::Stopped { reason });
+    }
+}
+
+/// Play the episodes still to do, at most `concurrency` at a time, handing
+/// each finished one to the writer, until all are done or something stops
+/// the run (budget, outage, Ctrl-C, a refusal, a failure).
+async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
+    let ctx = run.ctx.clone();
+    let counters = &ctx.counters;
+    let concurrency = ctx.options.concurrency.max(1);
+    let budget = ctx.options.max_total_tokens;
     let outage_streak = OUTAGE_STREAK.min(concurrency as u32).max(3);
-    let mut stopped_by_outage = None;
-    let mut interrupted = false;
-    let mut fatal: Option<LlmError> = None;
-    let mut failure: Option<EvalError> = None;
+    let mut pending = Scheduler::new(std::mem::take(&mut run.todo));
+    let mut set: JoinSet<(EpisodeKey, EpisodeResult)> = JoinSet::new();
+    let mut drove = Drove { stop: None, fatal: None, failure: None };
+    let mut tokens_spent: u64 = 0;
+    let mut infra_streak: u32 = 0;
     let ctrl_c = tokio::signal::ctrl_c();
     tokio::pin!(ctrl_c);
     loop {
-        while set.len() < concurrency && !stopped_by_budget && stopped_by_outage.is_none() {
+        while set.len() < concurrency && drove.stop.is_none() {
             let Some(key) = pending.next_key() else { break };
             let ctx = ctx.clone();
             set.spawn(async move { (key, play(&ctx, key).await) });
         }
         let joined = tokio::select! {
             j = set.join_next() => j,
-            _ = &mut ctrl_c => { interrupted = true; set.abort_all(); break; }
+            _ = &mut ctrl_c => {
+                set.abort_all();
+                stop(&mut drove, StopReason::Interrupted, reporter);
+                break;
+            }
         };
         let Some(joined) = joined else { break };
         let (key, result) = match joined {
             Ok(r) => r,
             Err(e) => {
                 set.abort_all();
-                failure = Some(EvalError::Task(e.to_string()));
+                drove.failure = Some(EvalError::Task(e.to_string()));
+                stop(&mut drove, StopReason::Failed, reporter);
                 break;
             }
         };
@@ -285,11 +345,12 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
             Ok((scalars, line)) => {
                 infra_streak = 0;
                 pending.observe(key, scalars.turns_taken);
-                if writer.tx.send(WriteMsg::Rollout(line)).is_err() {
+                if run.writer.tx.send(WriteMsg::Rollout(line)).is_err() {
                     // The writer failed (disk full, ...): stop spending
                     // tokens on episodes that cannot be stored. Its error is
-                    // reported below.
+                    // reported by finalize.
                     set.abort_all();
+                    stop(&mut drove, StopReason::Failed, reporter);
                     break;
                 }
                 counters.done.fetch_add(1, Relaxed);
@@ -297,27 +358,26 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
                     counters.success.fetch_add(1, Relaxed);
                 }
                 tokens_spent += scalars.tokens;
-                invocation.episodes += 1;
-                invocation.tokens += scalars.tokens;
-                loaded.finished.insert(key, scalars);
-                if budget.is_some_and(|b| tokens_spent >= b) && !stopped_by_budget {
-                    stopped_by_budget = true;
+                run.invocation.episodes += 1;
+                run.invocation.tokens += scalars.tokens;
+                run.finished.insert(key, scalars);
+                reporter.event(&Event::EpisodeFinished {
+                    key,
+                    outcome: scalars.outcome,
+                    reward: scalars.reward,
+                    turns: scalars.turns_taken,
+                    tokens: scalars.tokens,
+                    retries: scalars.retries,
+                });
+                if budget.is_some_and(|b| tokens_spent >= b) {
+                    stop(&mut drove, StopReason::TokenBudget, reporter);
                 }
             }
             Err(EpisodeError::Infra { turn, message }) => {
                 counters.infra_errors.fetch_add(1, Relaxed);
-                infra_streak += 1;
-                if infra_streak >= outage_streak && stopped_by_outage.is_none() {
-                    stopped_by_outage = Some(infra_streak);
-                    if !quiet {
-                        eprintln!(
-                            "{infra_streak} episodes in a row ran out of retries (last: {message}); \
-                             starting no new episodes"
-                        );
-                    }
-                }
                 counters.done.fetch_add(1, Relaxed);
-                invocation.infra_errors += 1;
+                run.invocation.infra_errors += 1;
+                infra_streak += 1;
                 let rec = InfraErrorRecord {
                     schema_version: SCHEMA_VERSION,
                     scenario: key.scenario,
@@ -325,36 +385,41 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
                     seed: key.seed,
                     rollout: key.rollout,
                     turn,
-                    error: message,
+                    error: message.clone(),
                     at: now_rfc3339(),
                 };
-                let _ = writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+                let _ = run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+                reporter.event(&Event::InfraError { key, turn, error: message.clone() });
+                let outage = StopReason::Outage { streak: infra_streak };
+                if infra_streak >= outage_streak && outage.outranks(drove.stop) {
+                    reporter.event(&Event::Outage { streak: infra_streak, last_error: message });
+                    stop(&mut drove, outage, reporter);
+                }
             }
             Err(EpisodeError::Fatal(e)) => {
                 set.abort_all();
-                fatal = Some(e);
+                let reason =
+                    if matches!(e, LlmError::Refused { .. }) { StopReason::Refused } else { StopReason::Failed };
+                drove.fatal = Some(e);
+                stop(&mut drove, reason, reporter);
                 break;
             }
         }
     }
     // Let aborted tasks wind down before the writer closes.
     while set.join_next().await.is_some() {}
-    progress.finish().await;
-    let write_result = writer.finish();
+    drove
+}
 
-    invocation.retries = counters.retries.load(Relaxed);
-    invocation.turns = counters.turns.load(Relaxed);
+/// Close the writer, record the invocation's totals and status in
+/// run.json, report the end, then either return the error that stopped the
+/// run or write the summary of every finished episode of the selection.
+fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<RunOutcome, EvalError> {
+    let Prepared { started, dir, selection, finished, mut info, mut invocation, prev_totals, ctx, writer, .. } = run;
+    let write_result = writer.finish();
+    invocation.retries = ctx.counters.retries.load(Relaxed);
+    invocation.turns = ctx.counters.turns.load(Relaxed);
     invocation.wall_s = started.elapsed().as_secs_f64();
-    if !quiet && invocation.wall_s > 0.0 {
-        eprintln!(
-            "{} episodes, {} decision turns in {:.1} s ({:.0} turns/s), {} retries",
-            invocation.episodes,
-            invocation.turns,
-            invocation.wall_s,
-            invocation.turns as f64 / invocation.wall_s,
-            invocation.retries
-        );
-    }
     invocation.ended_at = Some(now_rfc3339());
 
     // Summary over every finished episode of the selection, in key order.
@@ -365,57 +430,77 @@ pub async fn run(options: EvalOptions) -> Result<RunOutcome, EvalError> {
             by_cell.push((key.scenario, key.tier, Vec::new(), 0));
             by_cell.len() - 1
         });
-        match loaded.finished.get(key) {
+        match finished.get(key) {
             Some(s) => by_cell[i].2.push(*s),
             None => by_cell[i].3 += 1,
         }
     }
     let summary = summary::summarize(&ctx.options.config.model, &by_cell);
     let missing = summary.missing;
-    invocation.status = match (&fatal, interrupted, missing) {
-        (Some(LlmError::Refused { .. }), _, _) => RunStatus::Refused,
-        (Some(_), _, _) => RunStatus::Failed,
-        _ if failure.is_some() || write_result.is_err() => RunStatus::Failed,
-        (None, true, _) => RunStatus::Interrupted,
-        (None, false, 0) => RunStatus::Finished,
+    invocation.status = match drove.stop {
+        Some(StopReason::Refused) => RunStatus::Refused,
+        Some(StopReason::Failed) => RunStatus::Failed,
+        _ if write_result.is_err() => RunStatus::Failed,
+        Some(StopReason::Interrupted) => RunStatus::Interrupted,
+        _ if missing == 0 => RunStatus::Finished,
         _ => RunStatus::Incomplete,
     };
+    let status = invocation.status;
     info.totals = Totals {
-        episodes: loaded.finished.len() as u64,
+        episodes: finished.len() as u64,
         infra_errors: prev_totals.infra_errors + invocation.infra_errors,
         missing: missing as u64,
         retries: prev_totals.retries + invocation.retries,
-        tokens: loaded_tokens(&loaded.finished),
+        tokens: finished.values().map(|s| s.tokens).sum(),
         wall_s: prev_totals.wall_s + invocation.wall_s,
     };
     info.ended_at = invocation.ended_at.clone();
+    let inv = &invocation;
+    let end = Event::Finished {
+        status,
+        stop: drove.stop,
+        episodes: inv.episodes,
+        infra_errors: inv.infra_errors,
+        turns: inv.turns,
+        retries: inv.retries,
+        tokens: inv.tokens,
+        wall_s: inv.wall_s,
+        missing,
+    };
     info.last_invocation = invocation;
     rundir::write_run_info(&dir, &info)?;
+    reporter.event(&end);
     write_result?;
-    if let Some(f) = failure {
+    if let Some(f) = drove.failure {
         return Err(f);
     }
-    if let Some(e) = fatal {
-        let hint = match &e {
-            LlmError::Refused { status: 401 | 403, .. } => match &ctx.options.api_key_var {
-                Some(var) => format!(" (check the API key in ${var})"),
-                None => " (no API key was sent: give --api-key-var or --endpoint)".to_string(),
-            },
-            LlmError::Refused { status: 404, .. } => {
-                format!(" (check --model '{}' and the base URL {})", ctx.options.config.model, ctx.client.url())
-            }
-            _ => String::new(),
-        };
-        let msg = format!("{e}{hint}; the run was stopped, finished episodes are kept in {}", dir.display());
-        return Err(match e {
-            LlmError::Refused { .. } => EvalError::Refused(msg),
-            _ => EvalError::Rejected(msg),
-        });
+    if let Some(e) = drove.fatal {
+        return Err(fatal_error(e, &ctx, &dir));
     }
     let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
     rundir::write_atomic(&dir.join("summary.json"), &json)?;
     rundir::write_atomic(&dir.join("summary.md"), summary::render(&summary).as_bytes())?;
-    Ok(RunOutcome { summary, run_dir: dir, missing, stopped_by_budget, stopped_by_outage, interrupted })
+    Ok(RunOutcome { summary, run_dir: dir, missing, status, stop: drove.stop })
+}
+
+/// The error of a run the endpoint refused or rejected, with a hint at the
+/// likely cause.
+fn fatal_error(e: LlmError, ctx: &Ctx, dir: &std::path::Path) -> EvalError {
+    let hint = match &e {
+        LlmError::Refused { status: 401 | 403, .. } => match &ctx.options.api_key_var {
+            Some(var) => format!(" (check the API key in ${var})"),
+            None => " (no API key was sent: give --api-key-var or --endpoint)".to_string(),
+        },
+        LlmError::Refused { status: 404, .. } => {
+            format!(" (check --model '{}' and the base URL {})", ctx.options.config.model, ctx.client.url())
+        }
+        _ => String::new(),
+    };
+    let msg = format!("{e}{hint}; the run was stopped, finished episodes are kept in {}", dir.display());
+    match e {
+        LlmError::Refused { .. } => EvalError::Refused(msg),
+        _ => EvalError::Rejected(msg),
+    }
 }
 
 /// Which episode to start next. Cells (scenario, tier) start round-robin;
@@ -465,10 +550,6 @@ impl Scheduler {
         };
         self.cells[i].0.pop_front()
     }
-}
-
-fn loaded_tokens(finished: &HashMap<EpisodeKey, EpisodeScalars>) -> u64 {
-    finished.values().map(|s| s.tokens).sum()
 }
 
 /// Play one episode to its end; return its summary scalars and its line.
@@ -574,6 +655,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     fn key(scenario: ScenarioKind, seed: u64) -> EpisodeKey {
         EpisodeKey { scenario, tier: Tier::T1, seed, rollout: 0 }

@@ -473,3 +473,95 @@ fn a_dead_endpoint_stops_the_run_instead_of_retrying_for_hours() {
     let run_json: Value = serde_json::from_str(&std::fs::read_to_string(out.join("run/run.json")).unwrap()).unwrap();
     assert_eq!(run_json["totals"]["missing"], 40);
 }
+
+/// `eval --events json`: every stderr line is one JSON event.
+fn eval_events(base_url: &str, out: &Path, args: &[&str]) -> (Option<i32>, Vec<Value>) {
+    let r = run({
+        let mut c = negotiator();
+        c.args(["eval", "--base-url", base_url, "--model", "scripted", "--events", "json", "--output"])
+            .arg(out)
+            .args(["--run-name", "run", "--backoff-base-ms", "1", "--backoff-max", "0.1"])
+            .args(args);
+        c
+    });
+    let stderr = String::from_utf8(r.stderr).unwrap();
+    let events = stderr
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap_or_else(|e| panic!("not a JSON event ({e}): {l:?}")))
+        .collect();
+    (r.status.code(), events)
+}
+
+fn names(events: &[Value]) -> Vec<&str> {
+    events.iter().map(|e| e["event"].as_str().expect("every event names itself")).collect()
+}
+
+#[test]
+fn json_events_tell_the_whole_run_in_order() {
+    let server = Server::start(&["--policy", "expert"]);
+    let out = scratch("events-json");
+    let args = ["--scenario", "all", "--tier", "1", "-n", "2", "-c", "3"];
+    let (code, events) = eval_events(&server.base_url(), &out, &args);
+    assert_eq!(code, Some(0));
+    let mut expected = vec!["planned"];
+    expected.extend(["episode_finished"; 6]);
+    expected.push("finished");
+    assert_eq!(names(&events), expected);
+    let run_dir = out.join("run").display().to_string();
+    assert_eq!(
+        events[0],
+        serde_json::json!({"event": "planned", "run_dir": run_dir, "selected": 6, "finished": 0, "to_run": 6})
+    );
+    // One episode_finished per key of the selection, with its outcome.
+    let finished: HashSet<(String, u64)> = events[1..7]
+        .iter()
+        .map(|e| {
+            assert_eq!((e["tier"].as_u64(), e["rollout"].as_u64()), (Some(1), Some(0)), "{e}");
+            assert!(e["outcome"].is_string() && e["turns"].as_u64().unwrap() > 0, "{e}");
+            (e["scenario"].as_str().unwrap().to_string(), e["seed"].as_u64().unwrap())
+        })
+        .collect();
+    assert_eq!(finished.len(), 6);
+    let end = &events[7];
+    assert_eq!(
+        (end["status"].as_str(), end["missing"].as_u64(), end["episodes"].as_u64()),
+        (Some("finished"), Some(0), Some(6))
+    );
+    assert!(end["stop"].is_null(), "{end}");
+    let tokens: u64 = events[1..7].iter().map(|e| e["tokens"].as_u64().unwrap()).sum();
+    assert_eq!(end["tokens"].as_u64(), Some(tokens));
+
+    // Again: the run is resumed and there is nothing to do.
+    let (code, events) = eval_events(&server.base_url(), &out, &args);
+    assert_eq!(code, Some(0));
+    assert_eq!(names(&events), ["resumed", "planned", "finished"]);
+    assert_eq!(
+        events[0],
+        serde_json::json!({"event": "resumed", "run_dir": run_dir, "finished": 6, "torn_bytes": 0, "bad_lines": 0})
+    );
+    assert_eq!((events[1]["to_run"].as_u64(), events[2]["episodes"].as_u64()), (Some(0), Some(0)));
+}
+
+#[test]
+fn json_events_report_infrastructure_errors_and_the_outage_that_stops_a_run() {
+    let url = mock(std::sync::Arc::new(|_, _| json_response(502, serde_json::json!({"error": "bad gateway"}))));
+    let out = scratch("events-outage");
+    let (code, events) =
+        eval_events(&url, &out, &["--scenario", "yield_standoff", "-n", "40", "-c", "1", "--max-retries", "0"]);
+    assert_eq!(code, Some(1));
+    // With one episode in flight, the third error in a row stops the run.
+    assert_eq!(
+        names(&events),
+        ["planned", "infra_error", "infra_error", "infra_error", "outage", "stopped", "finished"]
+    );
+    assert_eq!((events[1]["scenario"].as_str(), events[1]["turn"].as_u64()), (Some("yield_standoff"), Some(1)));
+    assert!(events[1]["error"].as_str().unwrap().contains("502"), "{}", events[1]);
+    assert_eq!(events[4]["streak"], 3);
+    assert_eq!(events[5], serde_json::json!({"event": "stopped", "reason": "outage", "streak": 3}));
+    let end = &events[6];
+    assert_eq!((end["status"].as_str(), end["missing"].as_u64()), (Some("incomplete"), Some(40)));
+    assert_eq!(end["stop"], serde_json::json!({"reason": "outage", "streak": 3}));
+    assert_eq!(end["infra_errors"], 3);
+    let run_json: Value = serde_json::from_str(&std::fs::read_to_string(out.join("run/run.json")).unwrap()).unwrap();
+    assert_eq!(run_json["last_invocation"]["status"], "incomplete");
+}

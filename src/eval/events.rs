@@ -1,0 +1,125 @@
+//! What a run tells the outside world: [`Event`]s, handed to one
+//! [`Reporter`] (the progress bar, plain lines, nothing, or JSON lines; see
+//! [`super::progress`]). The library never prints; reporters decide what
+//! an event looks like.
+
+use super::progress::Counters;
+use crate::episode::Outcome;
+use crate::rundir::RunStatus;
+use crate::rundir::record::EpisodeKey;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// Why a run stopped starting new episodes before its selection was done.
+/// Variants are in order of precedence: a later one replaces an earlier one
+/// (an outage after the budget ran out is reported as the outage).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum StopReason {
+    /// `--max-total-tokens` was reached; episodes in flight finished.
+    TokenBudget,
+    /// `streak` episodes in a row ran out of retries: the endpoint looks down.
+    Outage { streak: u32 },
+    /// Ctrl-C; episodes in flight were abandoned.
+    Interrupted,
+    /// The endpoint refused the run (authentication, unknown model).
+    Refused,
+    /// The endpoint rejected a request, or the run itself failed (a task,
+    /// the writer).
+    Failed,
+}
+
+impl StopReason {
+    fn rank(self) -> u8 {
+        match self {
+            StopReason::TokenBudget => 0,
+            StopReason::Outage { .. } => 1,
+            StopReason::Interrupted => 2,
+            StopReason::Refused => 3,
+            StopReason::Failed => 4,
+        }
+    }
+
+    /// Whether `self` replaces `current` as the reason a run stopped.
+    pub fn outranks(self, current: Option<StopReason>) -> bool {
+        current.is_none_or(|c| self.rank() > c.rank())
+    }
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StopReason::TokenBudget => f.write_str("stopped by --max-total-tokens, or infrastructure errors"),
+            StopReason::Outage { streak } => {
+                write!(f, "the endpoint looks down: stopped after {streak} consecutive infrastructure errors")
+            }
+            StopReason::Interrupted => f.write_str("interrupted"),
+            StopReason::Refused => f.write_str("the endpoint refused the run"),
+            StopReason::Failed => f.write_str("the run failed"),
+        }
+    }
+}
+
+/// One thing that happened in a run, in the order it happened. Serialised
+/// as one JSON object per line by `--events json` (the schema is in the
+/// README).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// The run directory already held a run. `torn_bytes`: a torn last line
+    /// cut off; `bad_lines`: complete lines that could not be read (kept,
+    /// ignored).
+    Resumed { run_dir: String, finished: usize, torn_bytes: u64, bad_lines: usize },
+    /// What this invocation will do.
+    Planned { run_dir: String, selected: usize, finished: usize, to_run: usize },
+    /// An episode finished and its line was handed to the writer.
+    EpisodeFinished {
+        #[serde(flatten)]
+        key: EpisodeKey,
+        outcome: Outcome,
+        reward: f64,
+        turns: u32,
+        tokens: u64,
+        retries: u32,
+    },
+    /// An episode's retries ran out at `turn`: recorded in errors.jsonl,
+    /// excluded from the scores, re-run by the next invocation.
+    InfraError {
+        #[serde(flatten)]
+        key: EpisodeKey,
+        turn: u32,
+        error: String,
+    },
+    /// `streak` episodes in a row ran out of retries (followed by `stopped`).
+    Outage { streak: u32, last_error: String },
+    /// No new episode will be started.
+    Stopped {
+        #[serde(flatten)]
+        reason: StopReason,
+    },
+    /// The run is over and run.json records it. The last event.
+    Finished {
+        status: RunStatus,
+        stop: Option<StopReason>,
+        /// Episodes finished by this invocation.
+        episodes: u64,
+        infra_errors: u64,
+        /// Decision turns answered by this invocation.
+        turns: u64,
+        retries: u64,
+        tokens: u64,
+        wall_s: f64,
+        /// Episodes of the selection still missing.
+        missing: usize,
+    },
+}
+
+/// Consumes a run's events.
+pub trait Reporter {
+    /// Called once before the first event with the counters the episode
+    /// tasks update between events (tokens and retries as they happen), for
+    /// displays that redraw on a timer.
+    fn attach(&mut self, _live: Arc<Counters>) {}
+
+    fn event(&mut self, event: &Event);
+}
