@@ -10,7 +10,7 @@
 //! explicitly; an existing run there with another configuration is refused.
 
 use super::{RefusedError, exit, parse_list, usage};
-use crate::eval::config::{EndpointsFile, sanitize_name};
+use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias, sanitize_name};
 use crate::eval::events::Reporter;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::eval::{EvalError, EvalOptions};
@@ -146,9 +146,69 @@ fn positive_secs(x: f64, flag: &str) -> anyhow::Result<Duration> {
     }
 }
 
+/// Where the requests go: `--model`, `--endpoint` and `--base-url`
+/// resolved against the endpoints file.
+struct Target {
+    /// The model id sent to the endpoint.
+    model: String,
+    /// `--model` named an alias of the endpoints file.
+    alias: Option<ModelAlias>,
+    endpoint: Option<Endpoint>,
+    base_url: String,
+}
+
 impl EvalArgs {
-    /// Validate the flags into options. Errors are usage errors (exit 2).
+    /// Validate the flags into options, one concern per step (in the order
+    /// the flags' errors are reported). Errors are usage errors (exit 2).
     pub fn options(&self) -> anyhow::Result<EvalOptions> {
+        let target = self.target()?;
+        let api_key_var =
+            self.api_key_var.clone().or_else(|| target.endpoint.as_ref().and_then(|e| e.api_key_env.clone()));
+        let api_key = api_key(api_key_var.as_deref())?;
+        let headers = self.headers(target.endpoint.as_ref())?;
+        let request_params = self.request_params(&target)?;
+        let history: HistoryWindow = self.history.parse().map_err(|e| usage(format!("--history: {e}")))?;
+        let selection = self.selection()?;
+        if self.concurrency == 0 {
+            return Err(usage("-c: must be at least 1"));
+        }
+        let scenario_set = ScenarioSet::with_overrides(&self.scenario_files)?;
+        let config = RunConfig {
+            model: target.model,
+            request_params,
+            history,
+            prompt_hash: fnv1a64_hex(crate::eval::prompt::SYSTEM_PROMPT),
+            scenarios_hash: scenarios_hash(&scenario_set),
+        };
+        let run_name = self.run_name(&config)?;
+        let retry = RetryPolicy {
+            max_retries: self.max_retries,
+            base: Duration::from_millis(self.backoff_base_ms),
+            max_backoff: positive_secs(self.backoff_max, "--backoff-max")?,
+            ..RetryPolicy::default()
+        };
+        Ok(EvalOptions {
+            config,
+            client: ClientConfig {
+                base_url: target.base_url.trim_end_matches('/').to_string(),
+                api_key,
+                headers,
+                request_timeout: positive_secs(self.request_timeout, "--request-timeout")?,
+                retry,
+            },
+            api_key_var,
+            scenario_set,
+            selection,
+            concurrency: self.concurrency,
+            run_dir: self.output.join(run_name),
+            max_total_tokens: self.max_total_tokens,
+            trajectories: !self.no_trajectories,
+        })
+    }
+
+    /// The endpoints file, then the model (an alias names an endpoint and
+    /// a model id), the endpoint and the base URL.
+    fn target(&self) -> anyhow::Result<Target> {
         let file = match &self.endpoints_file {
             Some(p) => {
                 let text =
@@ -157,13 +217,13 @@ impl EvalArgs {
             }
             None => EndpointsFile::builtin(),
         };
-        // --model may be an alias that names an endpoint and a model id.
-        let alias = file.models.get(&self.model).filter(|_| self.endpoint.is_none() && self.base_url.is_none());
-        let model = alias.map_or(self.model.clone(), |a| a.id.clone());
+        let alias =
+            file.models.get(&self.model).filter(|_| self.endpoint.is_none() && self.base_url.is_none()).cloned();
+        let model = alias.as_ref().map_or(self.model.clone(), |a| a.id.clone());
         if model.trim().is_empty() {
             return Err(usage("--model: empty model name"));
         }
-        let endpoint_name = self.endpoint.clone().or_else(|| alias.map(|a| a.endpoint.clone()));
+        let endpoint_name = self.endpoint.clone().or_else(|| alias.as_ref().map(|a| a.endpoint.clone()));
         let endpoint = match &endpoint_name {
             Some(name) => Some(file.endpoint(name).map_err(|e| usage(format!("--endpoint: {e}")))?.clone()),
             None => None,
@@ -183,22 +243,14 @@ impl EvalArgs {
         if !matches!(parsed_url.scheme(), "http" | "https") {
             return Err(usage(format!("--base-url '{base_url}': expected an http or https URL")));
         }
+        Ok(Target { model, alias, endpoint, base_url })
+    }
 
-        let api_key_var = self.api_key_var.clone().or_else(|| endpoint.as_ref().and_then(|e| e.api_key_env.clone()));
-        let api_key = match &api_key_var {
-            Some(var) => match std::env::var(var) {
-                Ok(v) if !v.trim().is_empty() => Some(v.trim().to_string()),
-                _ => {
-                    return Err(usage(format!(
-                        "the API key variable ${var} is not set (export {var}=... or choose another with --api-key-var)"
-                    )));
-                }
-            },
-            None => None,
-        };
-
+    /// The endpoint's headers, then `--header` ones (values marked
+    /// sensitive, so they are never printed).
+    fn headers(&self, endpoint: Option<&Endpoint>) -> anyhow::Result<HeaderMap> {
         let mut headers = HeaderMap::new();
-        let endpoint_headers = endpoint.as_ref().map(|e| e.headers.clone()).unwrap_or_default();
+        let endpoint_headers = endpoint.map(|e| e.headers.clone()).unwrap_or_default();
         let flag_headers = self.headers.iter().map(|h| {
             h.split_once(':')
                 .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
@@ -213,10 +265,13 @@ impl EvalArgs {
             value.set_sensitive(true);
             headers.insert(name, value);
         }
+        Ok(headers)
+    }
 
-        // Request parameters: endpoint defaults, alias defaults, then flags.
-        let mut params: Map<String, Value> = endpoint.as_ref().map(|e| e.sampling.clone()).unwrap_or_default();
-        if let Some(a) = alias {
+    /// Request parameters: endpoint defaults, alias defaults, then flags.
+    fn request_params(&self, target: &Target) -> anyhow::Result<Map<String, Value>> {
+        let mut params: Map<String, Value> = target.endpoint.as_ref().map(|e| e.sampling.clone()).unwrap_or_default();
+        if let Some(a) = &target.alias {
             params.extend(a.sampling.clone());
         }
         if let Some(raw) = &self.sampling_args {
@@ -249,8 +304,11 @@ impl EvalArgs {
                 return Err(usage(format!("--sampling-args: '{reserved}' is set by negotiator itself")));
             }
         }
+        Ok(params)
+    }
 
-        let history: HistoryWindow = self.history.parse().map_err(|e| usage(format!("--history: {e}")))?;
+    /// Which episodes to play.
+    fn selection(&self) -> anyhow::Result<Selection> {
         let shard: Shard = match &self.shard {
             Some(s) => s.parse().map_err(|e| usage(format!("--shard: {e}")))?,
             None => Shard::WHOLE,
@@ -263,61 +321,18 @@ impl EvalArgs {
         if self.rollouts == 0 {
             return Err(usage("-r: must be at least 1"));
         }
-        if self.concurrency == 0 {
-            return Err(usage("-c: must be at least 1"));
-        }
-        let scenario_set = ScenarioSet::with_overrides(&self.scenario_files)?;
-        let scenarios_json: Vec<Value> = ScenarioKind::ALL
-            .iter()
-            .map(|k| serde_json::to_value(scenario_set.get(*k)).expect("scenario config serialises"))
-            .collect();
+        Ok(Selection { base_seed: self.seed, rollouts: self.rollouts, scenarios, seeds: self.seeds, shard, tiers })
+    }
 
-        let config = RunConfig {
-            model: model.clone(),
-            request_params: params,
-            history,
-            prompt_hash: fnv1a64_hex(crate::eval::prompt::SYSTEM_PROMPT),
-            scenarios_hash: fnv1a64_hex(&Value::Array(scenarios_json).to_string()),
-        };
-        let run_name = match &self.run_name {
-            Some(n) => {
-                if n.is_empty() || n.contains(['/', '\\']) || n == "." || n == ".." {
-                    return Err(usage(format!("--run-name '{n}': expected a plain directory name")));
-                }
-                n.clone()
+    /// `--run-name`, or `<model>-<config hash>`.
+    fn run_name(&self, config: &RunConfig) -> anyhow::Result<String> {
+        match &self.run_name {
+            Some(n) if n.is_empty() || n.contains(['/', '\\']) || n == "." || n == ".." => {
+                Err(usage(format!("--run-name '{n}': expected a plain directory name")))
             }
-            None => format!("{}-{}", sanitize_name(&model), &config.hash()[..8]),
-        };
-        let retry = RetryPolicy {
-            max_retries: self.max_retries,
-            base: Duration::from_millis(self.backoff_base_ms),
-            max_backoff: positive_secs(self.backoff_max, "--backoff-max")?,
-            ..RetryPolicy::default()
-        };
-        Ok(EvalOptions {
-            config,
-            client: ClientConfig {
-                base_url: base_url.trim_end_matches('/').to_string(),
-                api_key,
-                headers,
-                request_timeout: positive_secs(self.request_timeout, "--request-timeout")?,
-                retry,
-            },
-            api_key_var,
-            scenario_set,
-            selection: Selection {
-                base_seed: self.seed,
-                rollouts: self.rollouts,
-                scenarios,
-                seeds: self.seeds,
-                shard,
-                tiers,
-            },
-            concurrency: self.concurrency,
-            run_dir: self.output.join(run_name),
-            max_total_tokens: self.max_total_tokens,
-            trajectories: !self.no_trajectories,
-        })
+            Some(n) => Ok(n.clone()),
+            None => Ok(format!("{}-{}", sanitize_name(&config.model), &config.hash()[..8])),
+        }
     }
 
     /// The reporter `--events` / `--quiet` ask for.
@@ -360,6 +375,26 @@ impl EvalArgs {
         }
         Ok(ExitCode::from(exit::FAILURE))
     }
+}
+
+/// The API key from the variable `var` names (required when named).
+fn api_key(var: Option<&str>) -> anyhow::Result<Option<String>> {
+    let Some(var) = var else { return Ok(None) };
+    match std::env::var(var) {
+        Ok(v) if !v.trim().is_empty() => Ok(Some(v.trim().to_string())),
+        _ => Err(usage(format!(
+            "the API key variable ${var} is not set (export {var}=... or choose another with --api-key-var)"
+        ))),
+    }
+}
+
+/// Hash of the scenario parameters in force (built-ins or overrides).
+fn scenarios_hash(set: &ScenarioSet) -> String {
+    let configs: Vec<Value> = ScenarioKind::ALL
+        .iter()
+        .map(|k| serde_json::to_value(set.get(*k)).expect("scenario config serialises"))
+        .collect();
+    fnv1a64_hex(&Value::Array(configs).to_string())
 }
 
 fn clip_header(h: &str) -> String {

@@ -21,8 +21,8 @@ pub mod store;
 pub mod summary;
 
 use crate::action::parse_action;
-use crate::episode::{Episode, Outcome};
-use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, LlmError, Role};
+use crate::episode::{Episode, EpisodeRecord, Outcome};
+use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, Completion, LlmError, Role, Usage};
 use crate::observation::render_scene;
 use crate::rundir::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord, RolloutRecord, TurnRecord};
 use crate::rundir::{
@@ -231,34 +231,8 @@ fn prepare(options: EvalOptions, counters: Arc<Counters>, reporter: &mut dyn Rep
     });
 
     let hash = options.config.hash();
-    let invocation = Invocation {
-        started_at: started_at.clone(),
-        ended_at: None,
-        status: RunStatus::Running,
-        selection: options.selection.clone(),
-        endpoint: options.endpoint(),
-        settings: options.settings(),
-        episodes: 0,
-        infra_errors: 0,
-        retries: 0,
-        tokens: 0,
-        turns: 0,
-        wall_s: 0.0,
-    };
-    let prev_totals = previous.as_ref().map(|p| p.totals.clone()).unwrap_or_default();
-    let info = RunInfo {
-        schema_version: SCHEMA_VERSION,
-        run_name: dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        config: options.config.clone(),
-        config_hash: hash.clone(),
-        crate_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_revision: git_revision(),
-        started_at: previous.as_ref().map(|p| p.started_at.clone()).unwrap_or(started_at),
-        ended_at: None,
-        invocations: previous.as_ref().map_or(0, |p| p.invocations) + 1,
-        last_invocation: invocation.clone(),
-        totals: Totals { episodes: loaded.finished.len() as u64, ..prev_totals.clone() },
-    };
+    let info = running_info(&options, &dir, previous.as_ref(), loaded.finished.len(), started_at);
+    let (invocation, prev_totals) = (info.last_invocation.clone(), info.totals.clone());
     rundir::write_run_info(&dir, &info)?;
 
     let client = Client::new(options.client.clone()).map_err(|e| EvalError::Client(e.to_string()))?;
@@ -284,6 +258,44 @@ fn prepare(options: EvalOptions, counters: Arc<Counters>, reporter: &mut dyn Rep
     })
 }
 
+/// run.json at the start of an invocation: the invocation running, the
+/// earlier invocations' totals carried over.
+fn running_info(
+    options: &EvalOptions,
+    dir: &std::path::Path,
+    previous: Option<&RunInfo>,
+    finished: usize,
+    started_at: String,
+) -> RunInfo {
+    let invocation = Invocation {
+        started_at: started_at.clone(),
+        ended_at: None,
+        status: RunStatus::Running,
+        selection: options.selection.clone(),
+        endpoint: options.endpoint(),
+        settings: options.settings(),
+        episodes: 0,
+        infra_errors: 0,
+        retries: 0,
+        tokens: 0,
+        turns: 0,
+        wall_s: 0.0,
+    };
+    RunInfo {
+        schema_version: SCHEMA_VERSION,
+        run_name: dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        config: options.config.clone(),
+        config_hash: options.config.hash(),
+        crate_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_revision: git_revision(),
+        started_at: previous.map(|p| p.started_at.clone()).unwrap_or(started_at),
+        ended_at: None,
+        invocations: previous.map_or(0, |p| p.invocations) + 1,
+        last_invocation: invocation,
+        totals: Totals { episodes: finished as u64, ..previous.map(|p| p.totals.clone()).unwrap_or_default() },
+    }
+}
+
 /// How [`drive`] ended.
 struct Drove {
     stop: Option<StopReason>,
@@ -293,11 +305,82 @@ struct Drove {
     failure: Option<EvalError>,
 }
 
-/// Record `reason` (and report it) unless a more serious one already holds.
-fn stop(drove: &mut Drove, reason: StopReason, reporter: &mut dyn Reporter) {
-    if reason.outranks(drove.stop) {
-        drove.stop = Some(reason);
-        reporter.event(&Event::Stopped { reason });
+/// The state of [`drive`] between episodes.
+struct Driver<'a> {
+    run: &'a mut Prepared,
+    reporter: &'a mut dyn Reporter,
+    drove: Drove,
+    tokens_spent: u64,
+    /// Infrastructure errors since the last finished episode.
+    infra_streak: u32,
+    outage_streak: u32,
+}
+
+impl Driver<'_> {
+    /// Record `reason` (and report it) unless a more serious one already holds.
+    fn stop(&mut self, reason: StopReason) {
+        if reason.outranks(self.drove.stop) {
+            self.drove.stop = Some(reason);
+            self.reporter.event(&Event::Stopped { reason });
+        }
+    }
+
+    /// A finished episode: hand its line to the writer and count it. False
+    /// if the writer is gone (its error is reported by [`finalize`]).
+    fn finished(&mut self, key: EpisodeKey, scalars: EpisodeScalars, line: String) -> bool {
+        let counters = &self.run.ctx.counters;
+        self.infra_streak = 0;
+        if self.run.writer.tx.send(WriteMsg::Rollout(line)).is_err() {
+            self.stop(StopReason::Failed);
+            return false;
+        }
+        counters.done.fetch_add(1, Relaxed);
+        if scalars.outcome == Outcome::Success {
+            counters.success.fetch_add(1, Relaxed);
+        }
+        self.tokens_spent += scalars.tokens;
+        self.run.invocation.episodes += 1;
+        self.run.invocation.tokens += scalars.tokens;
+        self.run.finished.insert(key, scalars);
+        self.reporter.event(&Event::EpisodeFinished {
+            key,
+            outcome: scalars.outcome,
+            reward: scalars.reward,
+            turns: scalars.turns_taken,
+            tokens: scalars.tokens,
+            retries: scalars.retries,
+        });
+        if self.run.ctx.options.max_total_tokens.is_some_and(|b| self.tokens_spent >= b) {
+            self.stop(StopReason::TokenBudget);
+        }
+        true
+    }
+
+    /// An episode whose retries ran out: record it in errors.jsonl, and
+    /// stop starting episodes once too many in a row failed.
+    fn infra_error(&mut self, key: EpisodeKey, turn: u32, message: String) {
+        let counters = &self.run.ctx.counters;
+        counters.infra_errors.fetch_add(1, Relaxed);
+        counters.done.fetch_add(1, Relaxed);
+        self.run.invocation.infra_errors += 1;
+        self.infra_streak += 1;
+        let rec = InfraErrorRecord {
+            schema_version: SCHEMA_VERSION,
+            scenario: key.scenario,
+            tier: key.tier,
+            seed: key.seed,
+            rollout: key.rollout,
+            turn,
+            error: message.clone(),
+            at: now_rfc3339(),
+        };
+        let _ = self.run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+        self.reporter.event(&Event::InfraError { key, turn, error: message.clone() });
+        let outage = StopReason::Outage { streak: self.infra_streak };
+        if self.infra_streak >= self.outage_streak && outage.outranks(self.drove.stop) {
+            self.reporter.event(&Event::Outage { streak: self.infra_streak, last_error: message });
+            self.stop(outage);
+        }
     }
 }
 
@@ -306,19 +389,21 @@ fn stop(drove: &mut Drove, reason: StopReason, reporter: &mut dyn Reporter) {
 /// the run (budget, outage, Ctrl-C, a refusal, a failure).
 async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
     let ctx = run.ctx.clone();
-    let counters = &ctx.counters;
     let concurrency = ctx.options.concurrency.max(1);
-    let budget = ctx.options.max_total_tokens;
-    let outage_streak = OUTAGE_STREAK.min(concurrency as u32).max(3);
     let mut pending = Scheduler::new(std::mem::take(&mut run.todo));
     let mut set: JoinSet<(EpisodeKey, EpisodeResult)> = JoinSet::new();
-    let mut drove = Drove { stop: None, fatal: None, failure: None };
-    let mut tokens_spent: u64 = 0;
-    let mut infra_streak: u32 = 0;
+    let mut driver = Driver {
+        run,
+        reporter,
+        drove: Drove { stop: None, fatal: None, failure: None },
+        tokens_spent: 0,
+        infra_streak: 0,
+        outage_streak: OUTAGE_STREAK.min(concurrency as u32).max(3),
+    };
     let ctrl_c = tokio::signal::ctrl_c();
     tokio::pin!(ctrl_c);
     loop {
-        while set.len() < concurrency && drove.stop.is_none() {
+        while set.len() < concurrency && driver.drove.stop.is_none() {
             let Some(key) = pending.next_key() else { break };
             let ctx = ctx.clone();
             set.spawn(async move { (key, play(&ctx, key).await) });
@@ -327,7 +412,7 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
             j = set.join_next() => j,
             _ = &mut ctrl_c => {
                 set.abort_all();
-                stop(&mut drove, StopReason::Interrupted, reporter);
+                driver.stop(StopReason::Interrupted);
                 break;
             }
         };
@@ -336,79 +421,33 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
             Ok(r) => r,
             Err(e) => {
                 set.abort_all();
-                drove.failure = Some(EvalError::Task(e.to_string()));
-                stop(&mut drove, StopReason::Failed, reporter);
+                driver.drove.failure = Some(EvalError::Task(e.to_string()));
+                driver.stop(StopReason::Failed);
                 break;
             }
         };
         match result {
             Ok((scalars, line)) => {
-                infra_streak = 0;
                 pending.observe(key, scalars.turns_taken);
-                if run.writer.tx.send(WriteMsg::Rollout(line)).is_err() {
-                    // The writer failed (disk full, ...): stop spending
-                    // tokens on episodes that cannot be stored. Its error is
-                    // reported by finalize.
+                if !driver.finished(key, scalars, line) {
+                    // Stop spending tokens on episodes that cannot be stored.
                     set.abort_all();
-                    stop(&mut drove, StopReason::Failed, reporter);
                     break;
                 }
-                counters.done.fetch_add(1, Relaxed);
-                if scalars.outcome == Outcome::Success {
-                    counters.success.fetch_add(1, Relaxed);
-                }
-                tokens_spent += scalars.tokens;
-                run.invocation.episodes += 1;
-                run.invocation.tokens += scalars.tokens;
-                run.finished.insert(key, scalars);
-                reporter.event(&Event::EpisodeFinished {
-                    key,
-                    outcome: scalars.outcome,
-                    reward: scalars.reward,
-                    turns: scalars.turns_taken,
-                    tokens: scalars.tokens,
-                    retries: scalars.retries,
-                });
-                if budget.is_some_and(|b| tokens_spent >= b) {
-                    stop(&mut drove, StopReason::TokenBudget, reporter);
-                }
             }
-            Err(EpisodeError::Infra { turn, message }) => {
-                counters.infra_errors.fetch_add(1, Relaxed);
-                counters.done.fetch_add(1, Relaxed);
-                run.invocation.infra_errors += 1;
-                infra_streak += 1;
-                let rec = InfraErrorRecord {
-                    schema_version: SCHEMA_VERSION,
-                    scenario: key.scenario,
-                    tier: key.tier,
-                    seed: key.seed,
-                    rollout: key.rollout,
-                    turn,
-                    error: message.clone(),
-                    at: now_rfc3339(),
-                };
-                let _ = run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
-                reporter.event(&Event::InfraError { key, turn, error: message.clone() });
-                let outage = StopReason::Outage { streak: infra_streak };
-                if infra_streak >= outage_streak && outage.outranks(drove.stop) {
-                    reporter.event(&Event::Outage { streak: infra_streak, last_error: message });
-                    stop(&mut drove, outage, reporter);
-                }
-            }
+            Err(EpisodeError::Infra { turn, message }) => driver.infra_error(key, turn, message),
             Err(EpisodeError::Fatal(e)) => {
                 set.abort_all();
-                let reason =
-                    if matches!(e, LlmError::Refused { .. }) { StopReason::Refused } else { StopReason::Failed };
-                drove.fatal = Some(e);
-                stop(&mut drove, reason, reporter);
+                let refused = matches!(e, LlmError::Refused { .. });
+                driver.drove.fatal = Some(e);
+                driver.stop(if refused { StopReason::Refused } else { StopReason::Failed });
                 break;
             }
         }
     }
     // Let aborted tasks wind down before the writer closes.
     while set.join_next().await.is_some() {}
-    drove
+    driver.drove
 }
 
 /// Close the writer, record the invocation's totals and status in
@@ -422,20 +461,7 @@ fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<
     invocation.wall_s = started.elapsed().as_secs_f64();
     invocation.ended_at = Some(now_rfc3339());
 
-    // Summary over every finished episode of the selection, in key order.
-    let mut by_cell: Vec<(ScenarioKind, Tier, Vec<EpisodeScalars>, usize)> = Vec::new();
-    let mut index: HashMap<(ScenarioKind, Tier), usize> = HashMap::new();
-    for key in &selection {
-        let i = *index.entry((key.scenario, key.tier)).or_insert_with(|| {
-            by_cell.push((key.scenario, key.tier, Vec::new(), 0));
-            by_cell.len() - 1
-        });
-        match finished.get(key) {
-            Some(s) => by_cell[i].2.push(*s),
-            None => by_cell[i].3 += 1,
-        }
-    }
-    let summary = summary::summarize(&ctx.options.config.model, &by_cell);
+    let summary = summarize_selection(&ctx.options.config.model, &selection, &finished);
     let missing = summary.missing;
     invocation.status = match drove.stop {
         Some(StopReason::Refused) => RunStatus::Refused,
@@ -481,6 +507,28 @@ fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<
     rundir::write_atomic(&dir.join("summary.json"), &json)?;
     rundir::write_atomic(&dir.join("summary.md"), summary::render(&summary).as_bytes())?;
     Ok(RunOutcome { summary, run_dir: dir, missing, status, stop: drove.stop })
+}
+
+/// The summary over every finished episode of the selection, in key order
+/// (the missing ones counted per cell).
+fn summarize_selection(
+    model: &str,
+    selection: &[EpisodeKey],
+    finished: &HashMap<EpisodeKey, EpisodeScalars>,
+) -> summary::Summary {
+    let mut by_cell: Vec<(ScenarioKind, Tier, Vec<EpisodeScalars>, usize)> = Vec::new();
+    let mut index: HashMap<(ScenarioKind, Tier), usize> = HashMap::new();
+    for key in selection {
+        let i = *index.entry((key.scenario, key.tier)).or_insert_with(|| {
+            by_cell.push((key.scenario, key.tier, Vec::new(), 0));
+            by_cell.len() - 1
+        });
+        match finished.get(key) {
+            Some(s) => by_cell[i].2.push(*s),
+            None => by_cell[i].3 += 1,
+        }
+    }
+    summary::summarize(model, &by_cell)
 }
 
 /// The error of a run the endpoint refused or rejected, with a hint at the
@@ -563,7 +611,6 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     let mut history = History::default();
     let mut turns: Vec<TurnRecord> = Vec::new();
     let retries = AtomicU32::new(0);
-    let (mut prompt_tokens, mut completion_tokens, mut tokens, mut latency_ms) = (0u64, 0u64, 0u64, 0u64);
     while !episode.is_done() {
         let turn = episode.observation().turn;
         let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
@@ -584,21 +631,9 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         let sent_bytes: usize = messages.iter().map(|m| m.content.len()).sum();
         drop(messages);
         let parsed = parse_action(completion.content.as_deref().unwrap_or(""));
-        let (turn_tokens, estimated) = match completion.usage.and_then(|u| u.total()) {
-            Some(t) => (t, false),
-            // No usage reported: estimate ~4 bytes per token so budgets and
-            // tokens/episode stay meaningful.
-            None => (((sent_bytes + completion.content.as_ref().map_or(0, String::len)) / 4) as u64, true),
-        };
-        if let Some(u) = completion.usage {
-            prompt_tokens += u.prompt_tokens.unwrap_or(0);
-            completion_tokens += u.completion_tokens.unwrap_or(0);
-        }
-        tokens += turn_tokens;
-        ctx.counters.tokens.fetch_add(turn_tokens, Relaxed);
+        let (tokens, estimated) = turn_tokens(&completion, sent_bytes);
+        ctx.counters.tokens.fetch_add(tokens, Relaxed);
         ctx.counters.turns.fetch_add(1, Relaxed);
-        let latency = completion.latency.as_millis() as u64;
-        latency_ms += latency;
         episode.step(parsed.action);
         let answer = prompt::history_answer(&completion.answer);
         turns.push(TurnRecord {
@@ -611,9 +646,9 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             action_reasoning: parsed.reasoning,
             parse_errors: parsed.errors,
             usage: completion.usage,
-            tokens: turn_tokens,
+            tokens,
             tokens_estimated: estimated,
-            latency_ms: latency,
+            latency_ms: completion.latency.as_millis() as u64,
             attempts: completion.attempts,
             after_resolution: false,
         });
@@ -623,9 +658,37 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     for (t, d) in turns.iter_mut().zip(&graded.decisions) {
         t.after_resolution = d.after_resolution;
     }
-    let record = RolloutRecord {
+    let record = rollout_record(ctx, key, graded, turns, retries.load(Relaxed), started);
+    let line = serde_json::to_string(&record).expect("a rollout record serialises");
+    Ok((EpisodeScalars::from(&record), line))
+}
+
+/// Tokens of one turn: the reported total, or (no usage reported) an
+/// estimate of ~4 bytes per token over the request and the reply, so
+/// budgets and tokens/episode stay meaningful. The flag says which.
+fn turn_tokens(completion: &Completion, sent_bytes: usize) -> (u64, bool) {
+    match completion.usage.and_then(|u| u.total()) {
+        Some(t) => (t, false),
+        None => (((sent_bytes + completion.content.as_ref().map_or(0, String::len)) / 4) as u64, true),
+    }
+}
+
+/// The line of a finished episode: its grades and its transcript, with the
+/// per-episode sums of the turns.
+fn rollout_record(
+    ctx: &Ctx,
+    key: EpisodeKey,
+    graded: EpisodeRecord,
+    turns: Vec<TurnRecord>,
+    retries: u32,
+    started: Instant,
+) -> RolloutRecord {
+    let usage = |part: fn(&Usage) -> Option<u64>| -> u64 {
+        turns.iter().filter_map(|t| t.usage.as_ref()).map(|u| part(u).unwrap_or(0)).sum()
+    };
+    RolloutRecord {
         schema_version: SCHEMA_VERSION,
-        model: opts.config.model.clone(),
+        model: ctx.options.config.model.clone(),
         config_hash: ctx.hash.clone(),
         scenario: key.scenario,
         tier: key.tier,
@@ -638,18 +701,16 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         diagnostics: graded.grades.diagnostics,
         turns_taken: turns.len() as u32,
         parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty()).count() as u32,
-        tokens,
-        prompt_tokens,
-        completion_tokens,
-        latency_ms,
-        retries: retries.load(Relaxed),
+        tokens: turns.iter().map(|t| t.tokens).sum(),
+        prompt_tokens: usage(|u| u.prompt_tokens),
+        completion_tokens: usage(|u| u.completion_tokens),
+        latency_ms: turns.iter().map(|t| t.latency_ms).sum(),
+        retries,
         wall_ms: started.elapsed().as_millis() as u64,
         finished_at: now_rfc3339(),
         turns,
         trajectory: graded.trajectory,
-    };
-    let line = serde_json::to_string(&record).expect("a rollout record serialises");
-    Ok((EpisodeScalars::from(&record), line))
+    }
 }
 
 #[cfg(test)]

@@ -195,6 +195,33 @@ type InfraLines = (usize, Vec<EpisodeKey>);
 
 /// Read and merge the run directories (already resolved).
 pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
+    let (mut data, per_run) = read_runs(dirs)?;
+    if data.runs.is_empty() {
+        return Err(ReportError::Empty("no run directory holds a readable episode".into()));
+    }
+    let groups = group_by_config(&data.runs);
+    let mut name_count: BTreeMap<&str, usize> = BTreeMap::new();
+    for (_, g) in &groups {
+        *name_count.entry(data.runs[g[0]].model.as_str()).or_default() += 1;
+    }
+    let mut models = Vec::with_capacity(groups.len());
+    for (hash, group) in &groups {
+        let model = &data.runs[group[0]].model;
+        let label = if name_count[model.as_str()] > 1 {
+            format!("{model} ({})", &hash[..hash.len().min(8)])
+        } else {
+            model.clone()
+        };
+        models.push(merge_model(&data.runs, &per_run, hash, group, label)?);
+    }
+    data.models = models;
+    Ok(data)
+}
+
+/// Read every run directory (in parallel): the runs that hold something,
+/// each with its episodes (whose `source.run` indexes the runs), and the
+/// warnings about what was skipped or ignored.
+fn read_runs(dirs: &[PathBuf]) -> Result<(Dataset, Vec<Vec<Episode>>), ReportError> {
     let infos: Vec<Option<RunInfo>> = dirs.iter().map(|d| read_info(d)).collect::<Result<_, _>>()?;
     let indexed: Vec<(u32, &PathBuf)> = dirs.iter().enumerate().map(|(i, d)| (i as u32, d)).collect();
     let parsed: Vec<Result<(Parsed, InfraLines), ReportError>> = par_map(&indexed, |(i, d)| {
@@ -213,25 +240,8 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
                 continue;
             }
         };
-        if !p.bad_lines.is_empty() {
-            data.warnings.push(format!(
-                "{}: {} unreadable line(s) ignored (first: line {})",
-                dir.join(ROLLOUTS).display(),
-                p.bad_lines.len(),
-                p.bad_lines[0]
-            ));
-        }
-        if p.episodes.is_empty() {
-            data.warnings.push(format!("{}: no finished episode", dir.display()));
-        }
-        if p.torn {
-            data.warnings.push(format!(
-                "{}: the last line is unterminated (an interrupted write) and was ignored",
-                dir.join(ROLLOUTS).display()
-            ));
-        }
+        warn_about(dir, &p, &mut data.warnings);
         let selection = info.map(|i| i.last_invocation.selection);
-        let shard = selection.as_ref().map(|s| s.shard.to_string());
         data.runs.push(RunSource {
             dir: dir.clone(),
             model,
@@ -240,7 +250,7 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
             bad_lines: p.bad_lines.len(),
             torn_last_line: p.torn,
             infra_error_lines: infra_lines,
-            shard,
+            shard: selection.as_ref().map(|s| s.shard.to_string()),
             selection,
             infra_keys,
         });
@@ -251,64 +261,81 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
         }
         per_run.push(eps);
     }
-    if data.runs.is_empty() {
-        return Err(ReportError::Empty("no run directory holds a readable episode".into()));
-    }
+    Ok((data, per_run))
+}
 
-    // Group by config hash, in the order first seen.
+/// Unreadable lines, an empty run, a torn last line.
+fn warn_about(dir: &Path, p: &Parsed, warnings: &mut Vec<String>) {
+    if !p.bad_lines.is_empty() {
+        warnings.push(format!(
+            "{}: {} unreadable line(s) ignored (first: line {})",
+            dir.join(ROLLOUTS).display(),
+            p.bad_lines.len(),
+            p.bad_lines[0]
+        ));
+    }
+    if p.episodes.is_empty() {
+        warnings.push(format!("{}: no finished episode", dir.display()));
+    }
+    if p.torn {
+        warnings.push(format!(
+            "{}: the last line is unterminated (an interrupted write) and was ignored",
+            dir.join(ROLLOUTS).display()
+        ));
+    }
+}
+
+/// Runs of one configuration (model and config hash), in the order first
+/// seen: each group is one model.
+fn group_by_config(runs: &[RunSource]) -> Vec<(String, Vec<usize>)> {
     let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
-    for (i, r) in data.runs.iter().enumerate() {
-        match groups.iter_mut().find(|(h, g)| *h == r.config_hash && data.runs[g[0]].model == r.model) {
+    for (i, r) in runs.iter().enumerate() {
+        match groups.iter_mut().find(|(h, g)| *h == r.config_hash && runs[g[0]].model == r.model) {
             Some((_, g)) => g.push(i),
             None => groups.push((r.config_hash.clone(), vec![i])),
         }
     }
-    let mut name_count: BTreeMap<&str, usize> = BTreeMap::new();
-    for (_, g) in &groups {
-        *name_count.entry(data.runs[g[0]].model.as_str()).or_default() += 1;
-    }
-    let mut models = Vec::with_capacity(groups.len());
-    for (hash, group) in &groups {
-        let model = data.runs[group[0]].model.clone();
-        let label = if name_count[model.as_str()] > 1 {
-            format!("{model} ({})", &hash[..hash.len().min(8)])
-        } else {
-            model.clone()
-        };
-        let mut episodes: Vec<Episode> = group.iter().flat_map(|&i| per_run[i].iter().copied()).collect();
-        episodes.sort_by_key(|e| (e.key(), e.source.run, e.source.line));
-        if let Some(w) = episodes.windows(2).find(|w| w[0].key() == w[1].key()) {
-            return Err(ReportError::DuplicateEpisode {
-                key: w[0].key().to_string(),
-                model: label,
-                first: location(&data.runs, w[0].source),
-                second: location(&data.runs, w[1].source),
-            });
-        }
-        let finished: HashSet<EpisodeKey> = episodes.iter().map(|e| e.key()).collect();
-        let infra: HashSet<EpisodeKey> = group
-            .iter()
-            .flat_map(|&i| data.runs[i].infra_keys.iter().copied())
-            .filter(|k| !finished.contains(k))
-            .collect();
-        let selections: Vec<&Selection> = group.iter().filter_map(|&i| data.runs[i].selection.as_ref()).collect();
-        let expected: HashSet<EpisodeKey> = selections.iter().flat_map(|s| s.keys()).collect();
-        let missing = (!selections.is_empty()).then(|| expected.iter().filter(|k| !finished.contains(k)).count());
-        let declared = selections.iter().map(|s| s.rollouts).max();
-        let seen = max_rollouts_seen(&episodes);
-        models.push(ModelData {
-            label,
-            model,
-            config_hash: hash.clone(),
-            runs: group.clone(),
-            episodes,
-            infra_unresolved: infra.len(),
-            missing,
-            rollouts: declared.unwrap_or(seen).max(seen).max(1),
+    groups
+}
+
+/// One model from its runs: the episodes sorted by key (the same key twice
+/// is an error), unresolved infrastructure errors, missing episodes of the
+/// runs' selections, and rollouts per seed.
+fn merge_model(
+    runs: &[RunSource],
+    per_run: &[Vec<Episode>],
+    hash: &str,
+    group: &[usize],
+    label: String,
+) -> Result<ModelData, ReportError> {
+    let mut episodes: Vec<Episode> = group.iter().flat_map(|&i| per_run[i].iter().copied()).collect();
+    episodes.sort_by_key(|e| (e.key(), e.source.run, e.source.line));
+    if let Some(w) = episodes.windows(2).find(|w| w[0].key() == w[1].key()) {
+        return Err(ReportError::DuplicateEpisode {
+            key: w[0].key().to_string(),
+            model: label,
+            first: location(runs, w[0].source),
+            second: location(runs, w[1].source),
         });
     }
-    data.models = models;
-    Ok(data)
+    let finished: HashSet<EpisodeKey> = episodes.iter().map(|e| e.key()).collect();
+    let infra: HashSet<EpisodeKey> =
+        group.iter().flat_map(|&i| runs[i].infra_keys.iter().copied()).filter(|k| !finished.contains(k)).collect();
+    let selections: Vec<&Selection> = group.iter().filter_map(|&i| runs[i].selection.as_ref()).collect();
+    let expected: HashSet<EpisodeKey> = selections.iter().flat_map(|s| s.keys()).collect();
+    let missing = (!selections.is_empty()).then(|| expected.iter().filter(|k| !finished.contains(k)).count());
+    let declared = selections.iter().map(|s| s.rollouts).max();
+    let seen = max_rollouts_seen(&episodes);
+    Ok(ModelData {
+        label,
+        model: runs[group[0]].model.clone(),
+        config_hash: hash.to_string(),
+        runs: group.to_vec(),
+        episodes,
+        infra_unresolved: infra.len(),
+        missing,
+        rollouts: declared.unwrap_or(seen).max(seen).max(1),
+    })
 }
 
 /// The most rollouts any (scenario, tier, seed) has.
