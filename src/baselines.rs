@@ -2,6 +2,7 @@
 //! summarised per cell with normal-approximation 95% CIs.
 
 use crate::episode::{EpisodeRecord, Outcome, run_episode};
+use crate::export::{self, Column, Style, Table};
 use crate::par::par_map;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -76,6 +77,40 @@ impl CellSummary {
     pub fn span(&self, outcome: Outcome) -> RewardSpan {
         self.spans[outcome_index(outcome)]
     }
+}
+
+/// The grid as a table: one row per cell, every figure with its interval.
+pub(crate) fn table(cells: &[CellSummary]) -> Table {
+    let figure = |header: &str, key: &str| Column::new(header, key).style(Style::Interval);
+    let mut t = Table::new(
+        "baselines",
+        "",
+        vec![
+            Column::new("scenario", "scenario").style(Style::Code),
+            Column::new("tier", "tier"),
+            Column::new("policy", "policy").style(Style::Code),
+            Column::new("n", "n"),
+            figure("success", "success"),
+            figure("collision", "collision"),
+            figure("timeout", "timeout"),
+            figure("reward", "reward"),
+            figure("decision correctness", "decision_correctness"),
+        ],
+    );
+    for c in cells {
+        t.push(vec![
+            export::Cell::text(c.cell.scenario.to_string()),
+            export::Cell::Int(c.cell.tier.number().into()),
+            export::Cell::text(c.cell.policy.to_string()),
+            export::Cell::Int(c.n as u64),
+            export::Cell::Interval(c.success),
+            export::Cell::Interval(c.collision),
+            export::Cell::Interval(c.timeout),
+            export::Cell::Interval(c.reward),
+            export::Cell::Interval(c.decision_correctness),
+        ]);
+    }
+    t
 }
 
 /// A normal-approximation interval cannot leave the metric's range.

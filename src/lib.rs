@@ -18,8 +18,8 @@
 //!   records and their one reader), written by `eval`, read by `report`;
 //! - [`baselines`]: the reference grid of the scripted policies;
 //! - [`validate`]: the invariants;
-//! - [`export`]: output formats of tables (aligned text, Markdown, CSV,
-//!   JSON);
+//! - [`export`]: the table system: typed cells, columns defined once, one
+//!   exporter per format (aligned text, Markdown, CSV, JSON, HTML);
 //! - [`llm`]: the OpenAI-compatible chat client;
 //! - [`eval`]: `eval`, a language model as the policy;
 //! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;

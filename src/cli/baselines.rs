@@ -5,6 +5,7 @@ use crate::baselines::{GridSpec, run_grid};
 use crate::export::Format;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -46,8 +47,9 @@ impl BaselinesArgs {
         };
         let set = ScenarioSet::with_overrides(&self.scenario_files)?;
         let cells = run_grid(&set, &spec, &|_, _| {});
+        let text = self.format.exporter().render(&crate::baselines::table(&cells));
         let mut out = std::io::stdout().lock();
-        self.format.exporter().write(&cells, &mut out)?;
+        out.write_all(text.as_bytes())?;
         Ok(ExitCode::SUCCESS)
     }
 }

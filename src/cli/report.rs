@@ -87,15 +87,11 @@ impl ReportArgs {
                     serde_json::to_writer_pretty(&mut out, r)?;
                     writeln!(out)?;
                 }
-                Format::Csv => write!(out, "{}", r.leaderboard.csv().csv())?,
-                Format::Md => {
-                    for t in r.display_tables() {
-                        writeln!(out, "{}", t.markdown(3))?;
-                    }
-                }
-                Format::Table => {
-                    for t in r.display_tables() {
-                        writeln!(out, "{}", t.text())?;
+                Format::Csv => write!(out, "{}", self.format.exporter().render(&r.leaderboard.table(r.resamples)))?,
+                Format::Md | Format::Table => {
+                    let exporter = self.format.exporter();
+                    for t in r.tables() {
+                        writeln!(out, "{}", exporter.render(&t))?;
                     }
                 }
             }

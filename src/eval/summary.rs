@@ -3,11 +3,11 @@
 //! shown as their own column.
 
 use crate::episode::Outcome;
+use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, bootstrap_mean_ci, cell_seed, mean};
 use serde::{Deserialize, Serialize};
-use std::fmt::Write;
 
 /// Percentile bootstrap resamples for the success interval (SPEC section 8).
 pub const RESAMPLES: usize = 10_000;
@@ -80,52 +80,54 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
     }
 }
 
-fn f2(x: f64) -> String {
-    if x.is_finite() { format!("{x:.2}") } else { "-".to_string() }
+/// The leaderboard as a table: one row per (scenario, tier).
+pub(crate) fn table(summary: &Summary) -> Table {
+    let mut t = Table::new(
+        "summary",
+        "",
+        vec![
+            Column::new("scenario", "scenario"),
+            Column::new("tier", "tier"),
+            Column::new("n", "episodes"),
+            Column::new("success [95% CI]", "success").style(Style::Interval),
+            Column::new("collision", "collision_rate"),
+            Column::new("timeout", "timeout_rate"),
+            Column::new("reward", "mean_reward"),
+            Column::new("correctness", "decision_correctness"),
+            Column::new("parse errors", "parse_error_rate"),
+            Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
+            Column::new("infra errors", "missing"),
+        ],
+    );
+    for c in &summary.cells {
+        t.push(vec![
+            Cell::text(c.scenario.to_string()),
+            Cell::Int(c.tier.number().into()),
+            Cell::Int(c.episodes as u64),
+            Cell::Interval(c.success),
+            Cell::Float(c.collision_rate),
+            Cell::Float(c.timeout_rate),
+            Cell::Float(c.mean_reward),
+            Cell::Float(c.decision_correctness),
+            Cell::Float(c.parse_error_rate),
+            Cell::Float(c.tokens_per_episode),
+            Cell::Int(c.missing as u64),
+        ]);
+    }
+    t
 }
 
-/// The leaderboard as a Markdown table.
+/// `summary.md` and the table printed at the end of a run: the model, the
+/// leaderboard in Markdown, and the totals.
 pub fn render(summary: &Summary) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "model: {}", summary.model);
-    let _ = writeln!(s);
-    let _ = writeln!(
-        s,
-        "| scenario | tier | n | success [95% CI] | collision | timeout | reward | correctness | parse errors | tokens/ep | infra errors |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
-    for c in &summary.cells {
-        let ci = if c.success.lo.is_finite() {
-            format!(" [{}, {}]", f2(c.success.lo), f2(c.success.hi))
-        } else {
-            String::new()
-        };
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {}{} | {} | {} | {} | {} | {} | {} | {} |",
-            c.scenario,
-            c.tier,
-            c.episodes,
-            f2(c.success.estimate),
-            ci,
-            f2(c.collision_rate),
-            f2(c.timeout_rate),
-            f2(c.mean_reward),
-            f2(c.decision_correctness),
-            f2(c.parse_error_rate),
-            if c.tokens_per_episode.is_finite() { format!("{:.0}", c.tokens_per_episode) } else { "-".into() },
-            c.missing
-        );
-    }
-    let _ = writeln!(s);
-    let _ = writeln!(
-        s,
-        "mean success over cells: {}; {} episodes scored, {} missing",
+    format!(
+        "model: {}\n\n{}\nmean success over cells: {}; {} episodes scored, {} missing\n",
+        summary.model,
+        MarkdownExporter { heading_level: 2 }.render(&table(summary)),
         f2(summary.mean_success),
         summary.episodes,
         summary.missing
-    );
-    s
+    )
 }
 
 #[cfg(test)]

@@ -1,26 +1,20 @@
-use super::Exporter;
-use crate::baselines::CellSummary;
-use std::io::Write;
+//! RFC 4180 CSV of the data columns: a header line, then one line per row
+//! (an interval column takes three fields). No title, no notes.
 
-pub struct CsvExporter;
+use super::{Exporter, Table};
+
+pub(crate) struct CsvExporter;
 
 impl Exporter for CsvExporter {
-    fn write(&self, cells: &[CellSummary], out: &mut dyn Write) -> anyhow::Result<()> {
-        let mut w = csv::Writer::from_writer(out);
-        let mut header = vec!["scenario".to_string(), "tier".into(), "policy".into(), "n".into()];
-        for m in ["success", "collision", "timeout", "reward", "decision_correctness"] {
-            header.extend([m.to_string(), format!("{m}_lo"), format!("{m}_hi")]);
+    fn render(&self, table: &Table) -> String {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        // Writing into a Vec cannot fail.
+        let headers: Vec<String> = table.columns.iter().flat_map(|c| c.csv_headers()).collect();
+        let _ = w.write_record(&headers);
+        for row in table.data_rows() {
+            let fields: Vec<String> = row.fields().flat_map(|(c, cell)| cell.csv_fields(c.style)).collect();
+            let _ = w.write_record(&fields);
         }
-        w.write_record(&header)?;
-        for c in cells {
-            let mut row =
-                vec![c.cell.scenario.to_string(), c.cell.tier.to_string(), c.cell.policy.to_string(), c.n.to_string()];
-            for i in [&c.success, &c.collision, &c.timeout, &c.reward, &c.decision_correctness] {
-                row.extend([format!("{:.4}", i.estimate), format!("{:.4}", i.lo), format!("{:.4}", i.hi)]);
-            }
-            w.write_record(&row)?;
-        }
-        w.flush()?;
-        Ok(())
+        String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
     }
 }

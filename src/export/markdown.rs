@@ -1,28 +1,38 @@
-use super::{Exporter, HEADERS, with_ci};
-use crate::baselines::CellSummary;
-use std::io::Write;
+//! GitHub-flavoured Markdown: the title as a heading, the table, the notes
+//! as lines ending in a hard break.
 
-pub struct MarkdownExporter;
+use super::{Exporter, Style, Table};
+
+pub(crate) struct MarkdownExporter {
+    /// Level of the title's heading (2: `##`).
+    pub(crate) heading_level: usize,
+}
 
 impl Exporter for MarkdownExporter {
-    fn write(&self, cells: &[CellSummary], out: &mut dyn Write) -> anyhow::Result<()> {
-        writeln!(out, "| {} | decision correctness |", HEADERS.join(" | "))?;
-        writeln!(out, "|{}---|", "---|".repeat(HEADERS.len()))?;
-        for c in cells {
-            writeln!(
-                out,
-                "| `{}` | {} | `{}` | {} | {} | {} | {} | {} | {} |",
-                c.cell.scenario,
-                c.cell.tier,
-                c.cell.policy,
-                c.n,
-                with_ci(&c.success),
-                with_ci(&c.collision),
-                with_ci(&c.timeout),
-                with_ci(&c.reward),
-                with_ci(&c.decision_correctness)
-            )?;
+    fn render(&self, table: &Table) -> String {
+        let escape = |v: &str| v.replace('|', "\\|").replace('\n', " ");
+        let mut s = String::new();
+        if !table.title.is_empty() {
+            s.push_str(&format!("{} {}\n\n", "#".repeat(self.heading_level), table.title));
         }
-        Ok(())
+        let headers: Vec<String> = table.shown().map(|(_, h)| escape(h)).collect();
+        s.push_str(&format!("| {} |\n", headers.join(" | ")));
+        s.push_str(&format!("|{}\n", "---|".repeat(headers.len())));
+        let styles: Vec<Style> = table.shown().map(|(i, _)| table.columns[i].style).collect();
+        for r in table.display_rows() {
+            let cells: Vec<String> = r
+                .iter()
+                .zip(&styles)
+                .map(|(v, style)| if *style == Style::Code { format!("`{}`", escape(v)) } else { escape(v) })
+                .collect();
+            s.push_str(&format!("| {} |\n", cells.join(" | ")));
+        }
+        if !table.notes.is_empty() {
+            s.push('\n');
+            for n in &table.notes {
+                s.push_str(&format!("{n}  \n"));
+            }
+        }
+        s
     }
 }

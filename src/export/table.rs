@@ -1,32 +1,272 @@
-use super::{Exporter, HEADERS, with_ci};
-use crate::baselines::CellSummary;
-use std::io::Write;
+//! The table model: rows of typed cells under columns defined once. A
+//! column says how it is headed in the display formats (text, Markdown,
+//! HTML), how it is keyed in the data formats (CSV, JSON) and how its
+//! values are shown; a cell says only what the value is. Every renderer in
+//! this module's siblings reads the same table, so a row is built once.
 
-pub struct TableExporter;
+use crate::stats::Interval;
+use serde::ser::{Serialize, SerializeMap, SerializeStruct, Serializer};
 
-impl Exporter for TableExporter {
-    fn write(&self, cells: &[CellSummary], out: &mut dyn Write) -> anyhow::Result<()> {
-        let mut rows: Vec<Vec<String>> = vec![HEADERS.iter().map(|h| h.to_string()).collect()];
-        rows[0].push("correctness".into());
-        for c in cells {
-            rows.push(vec![
-                c.cell.scenario.to_string(),
-                c.cell.tier.to_string(),
-                c.cell.policy.to_string(),
-                c.n.to_string(),
-                with_ci(&c.success),
-                with_ci(&c.collision),
-                with_ci(&c.timeout),
-                with_ci(&c.reward),
-                with_ci(&c.decision_correctness),
-            ]);
+/// One value of a table.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Cell {
+    Text(String),
+    Int(u64),
+    Float(f64),
+    /// An estimate with its 95% interval; three CSV columns (`key`,
+    /// `key_lo`, `key_hi`). An estimate without bounds has NaN bounds.
+    Interval(Interval),
+    /// A percentage, shown with one decimal and a `%` sign.
+    Percent(f64),
+    /// A value followed by a second one in parentheses: "12 (3.4%)".
+    WithParen(Box<Cell>, Box<Cell>),
+    /// No value: "-" on display, empty in CSV, `null` in JSON.
+    Missing,
+    /// Not known: "?" on display, empty in CSV, `null` in JSON.
+    Unknown,
+    /// Nothing to show: empty everywhere, `null` in JSON.
+    Blank,
+}
+
+impl Cell {
+    pub(crate) fn text(s: impl Into<String>) -> Cell {
+        Cell::Text(s.into())
+    }
+
+    /// `Some(x)` as a float, `None` as [`Cell::Missing`].
+    pub(crate) fn opt(x: Option<f64>) -> Cell {
+        x.map_or(Cell::Missing, Cell::Float)
+    }
+
+    /// An estimate without bounds (a reference level in an interval column).
+    pub(crate) fn estimate(x: f64) -> Cell {
+        Cell::Interval(Interval { estimate: x, lo: f64::NAN, hi: f64::NAN })
+    }
+
+    /// The value as shown in the text, Markdown and HTML renderings.
+    pub(crate) fn display(&self, style: Style) -> String {
+        match (self, style) {
+            (Cell::Text(s), _) => s.clone(),
+            (Cell::Int(n), _) => n.to_string(),
+            (Cell::Float(x), Style::Signed) => format!("{x:+.2}"),
+            (Cell::Float(x), Style::Whole) => {
+                if x.is_finite() {
+                    format!("{x:.0}")
+                } else {
+                    "-".into()
+                }
+            }
+            (Cell::Float(x), Style::PValue) => p_value(*x),
+            (Cell::Float(x), _) => f2(*x),
+            (Cell::Interval(i), Style::SignedInterval) if i.lo.is_finite() => {
+                format!("{:+.2} [{:+.2}, {:+.2}]", i.estimate, i.lo, i.hi)
+            }
+            (Cell::Interval(i), _) => with_ci(i),
+            (Cell::Percent(x), _) => format!("{x:.1}%"),
+            (Cell::WithParen(a, b), _) => format!("{} ({})", a.display(style), b.display(style)),
+            (Cell::Missing, _) => "-".into(),
+            (Cell::Unknown, _) => "?".into(),
+            (Cell::Blank, _) => String::new(),
         }
-        let widths: Vec<usize> =
-            (0..rows[0].len()).map(|i| rows.iter().map(|r| r[i].len()).max().unwrap_or(0)).collect();
-        for r in rows {
-            let line: Vec<String> = r.iter().zip(&widths).map(|(v, w)| format!("{v:<w$}")).collect();
-            writeln!(out, "{}", line.join("  ").trim_end())?;
+    }
+
+    /// The CSV fields of the value: three for an interval column, else one.
+    pub(crate) fn csv_fields(&self, style: Style) -> Vec<String> {
+        let interval = |i: &Interval| vec![f4(i.estimate), f4(i.lo), f4(i.hi)];
+        match (self, style) {
+            (Cell::Interval(i), _) => interval(i),
+            (Cell::Missing | Cell::Unknown | Cell::Blank, _) if style.is_interval() => vec![String::new(); 3],
+            (Cell::Float(x), Style::PValue) if x.is_finite() => vec![format!("{x:.6e}")],
+            (Cell::Float(x) | Cell::Percent(x), _) => vec![f4(*x)],
+            (Cell::Text(s), _) => vec![s.clone()],
+            (Cell::Int(n), _) => vec![n.to_string()],
+            (Cell::WithParen(a, _), _) => a.csv_fields(style),
+            (Cell::Missing | Cell::Unknown | Cell::Blank, _) => vec![String::new()],
         }
-        Ok(())
+    }
+}
+
+/// Finite numbers as JSON numbers, anything undefined as `null`.
+impl Serialize for Cell {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let number = |x: f64| x.is_finite().then_some(x);
+        match self {
+            Cell::Text(t) => s.serialize_str(t),
+            Cell::Int(n) => s.serialize_u64(*n),
+            Cell::Float(x) | Cell::Percent(x) => number(*x).serialize(s),
+            Cell::Interval(i) => {
+                let mut st = s.serialize_struct("Interval", 3)?;
+                st.serialize_field("estimate", &number(i.estimate))?;
+                st.serialize_field("lo", &number(i.lo))?;
+                st.serialize_field("hi", &number(i.hi))?;
+                st.end()
+            }
+            Cell::WithParen(a, b) => [a, b].serialize(s),
+            Cell::Missing | Cell::Unknown | Cell::Blank => s.serialize_none(),
+        }
+    }
+}
+
+/// How a column shows its values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) enum Style {
+    /// Text as is, numbers with two decimals, intervals "0.53 [0.46, 0.60]".
+    #[default]
+    Plain,
+    /// An identifier: as [`Style::Plain`], in backticks in Markdown.
+    Code,
+    /// An interval column: three CSV fields (`key`, `key_lo`, `key_hi`),
+    /// empty cells included.
+    Interval,
+    /// An interval column of signed differences: "+0.12 [-0.03, +0.25]".
+    SignedInterval,
+    /// Numbers with a sign: "+0.12".
+    Signed,
+    /// Numbers rounded to a whole: "1234".
+    Whole,
+    /// A p-value: "<0.001" or three decimals; CSV in scientific notation.
+    PValue,
+}
+
+impl Style {
+    fn is_interval(self) -> bool {
+        matches!(self, Style::Interval | Style::SignedInterval)
+    }
+}
+
+/// One column, defined once for every format.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Column {
+    /// Header in the display formats; `None`: a data-only column.
+    pub(crate) header: Option<String>,
+    /// CSV header and JSON key; `None`: a display-only column.
+    pub(crate) key: Option<String>,
+    pub(crate) style: Style,
+}
+
+impl Column {
+    /// A column shown everywhere: `header` on display, `key` in CSV and JSON.
+    pub(crate) fn new(header: impl Into<String>, key: impl Into<String>) -> Column {
+        Column { header: Some(header.into()), key: Some(key.into()), style: Style::Plain }
+    }
+
+    /// A column of the display formats only.
+    pub(crate) fn display(header: impl Into<String>) -> Column {
+        Column { header: Some(header.into()), key: None, style: Style::Plain }
+    }
+
+    /// A column of the data formats (CSV, JSON) only.
+    pub(crate) fn data(key: impl Into<String>) -> Column {
+        Column { header: None, key: Some(key.into()), style: Style::Plain }
+    }
+
+    pub(crate) fn style(mut self, style: Style) -> Column {
+        self.style = style;
+        self
+    }
+
+    /// The CSV header fields: `key`, plus `key_lo`, `key_hi` for intervals.
+    pub(crate) fn csv_headers(&self) -> Vec<String> {
+        match &self.key {
+            None => Vec::new(),
+            Some(k) if self.style.is_interval() => vec![k.clone(), format!("{k}_lo"), format!("{k}_hi")],
+            Some(k) => vec![k.clone()],
+        }
+    }
+}
+
+/// A table: a name (the CSV file stem), a title, columns, rows and notes.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Table {
+    pub(crate) name: String,
+    /// Shown above the table; empty: none.
+    pub(crate) title: String,
+    pub(crate) columns: Vec<Column>,
+    pub(crate) rows: Vec<Vec<Cell>>,
+    /// Lines shown under the table (display formats only).
+    pub(crate) notes: Vec<String>,
+}
+
+impl Table {
+    pub(crate) fn new(name: &str, title: impl Into<String>, columns: Vec<Column>) -> Table {
+        Table { name: name.to_string(), title: title.into(), columns, ..Table::default() }
+    }
+
+    /// Add a row: one cell per column.
+    pub(crate) fn push(&mut self, row: Vec<Cell>) {
+        assert_eq!(row.len(), self.columns.len(), "table {}: a row needs one cell per column", self.name);
+        self.rows.push(row);
+    }
+
+    pub(crate) fn note(&mut self, note: impl Into<String>) {
+        self.notes.push(note.into());
+    }
+
+    /// The display columns' indices.
+    pub(crate) fn shown(&self) -> impl Iterator<Item = (usize, &str)> {
+        self.columns.iter().enumerate().filter_map(|(i, c)| c.header.as_deref().map(|h| (i, h)))
+    }
+
+    /// Rows as displayed: one string per display column.
+    pub(crate) fn display_rows(&self) -> Vec<Vec<String>> {
+        let shown: Vec<usize> = self.shown().map(|(i, _)| i).collect();
+        self.rows.iter().map(|r| shown.iter().map(|&i| r[i].display(self.columns[i].style)).collect()).collect()
+    }
+
+    /// Rows of one data format: `(key, cell)` per data column.
+    pub(crate) fn data_rows(&self) -> impl Iterator<Item = DataRow<'_>> {
+        self.rows.iter().map(|cells| DataRow { columns: &self.columns, cells })
+    }
+}
+
+/// One row of the data formats: its data columns, keyed.
+pub(crate) struct DataRow<'a> {
+    columns: &'a [Column],
+    cells: &'a [Cell],
+}
+
+impl<'a> DataRow<'a> {
+    pub(crate) fn fields(&self) -> impl Iterator<Item = (&'a Column, &'a Cell)> + use<'a> {
+        self.columns.iter().zip(self.cells).filter(|(c, _)| c.key.is_some())
+    }
+}
+
+/// A JSON object with the data columns' keys, in column order.
+impl Serialize for DataRow<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(None)?;
+        for (column, cell) in self.fields() {
+            map.serialize_entry(column.key.as_deref().unwrap_or_default(), cell)?;
+        }
+        map.end()
+    }
+}
+
+/// Two decimals, or "-" when undefined.
+pub(crate) fn f2(x: f64) -> String {
+    if x.is_finite() { format!("{x:.2}") } else { "-".to_string() }
+}
+
+/// Four decimals for CSV, or empty when undefined.
+pub(crate) fn f4(x: f64) -> String {
+    if x.is_finite() { format!("{x:.4}") } else { String::new() }
+}
+
+/// "0.53 [0.46, 0.60]"; the estimate alone when the bounds are undefined.
+pub(crate) fn with_ci(i: &Interval) -> String {
+    if i.lo.is_finite() && i.hi.is_finite() {
+        format!("{} [{}, {}]", f2(i.estimate), f2(i.lo), f2(i.hi))
+    } else {
+        f2(i.estimate)
+    }
+}
+
+fn p_value(p: f64) -> String {
+    if !p.is_finite() {
+        "-".into()
+    } else if p < 0.001 {
+        "<0.001".into()
+    } else {
+        format!("{p:.3}")
     }
 }

@@ -21,7 +21,7 @@ fn constant(xs: &[f64]) -> Option<f64> {
 
 /// [`bootstrap_mean_ci`], skipping the resampling when every value is the
 /// same (the result is that value three times either way).
-pub fn mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
+pub(crate) fn mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
     match constant(xs) {
         Some(v) if resamples > 0 => Interval { estimate: v, lo: v, hi: v },
         _ => bootstrap_mean_ci(xs, resamples, seed),
@@ -30,7 +30,7 @@ pub fn mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
 
 /// [`paired_bootstrap_diff_ci`], skipping the resampling when every
 /// difference is the same.
-pub fn paired_ci(a: &[f64], b: &[f64], resamples: usize, seed: u64) -> Result<Interval, StatsError> {
+pub(crate) fn paired_ci(a: &[f64], b: &[f64], resamples: usize, seed: u64) -> Result<Interval, StatsError> {
     if a.len() == b.len() && resamples > 0 {
         let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
         if let Some(v) = constant(&d) {
@@ -65,7 +65,7 @@ fn index(rng: &mut ChaCha8Rng, n: u32, threshold: u32) -> usize {
 /// clamped to the range of the values. When every cluster has one value
 /// per group this is the mean of all values, and the interval is that of
 /// [`crate::stats::bootstrap_clustered_mean_ci`] up to resampling noise.
-pub fn clustered_mean_of_means_ci(
+pub(crate) fn clustered_mean_of_means_ci(
     clusters: &[Vec<(usize, f64)>],
     groups: usize,
     resamples: usize,

@@ -20,9 +20,9 @@ use std::collections::HashMap;
 use std::io::{Read, Seek, SeekFrom};
 
 /// Embedded transcript JSON, at most (the last transcript may cross it).
-pub const TRANSCRIPT_BUDGET: usize = 6_000_000;
+pub(crate) const TRANSCRIPT_BUDGET: usize = 6_000_000;
 /// Longest reply or reasoning text embedded per turn (characters).
-pub const MAX_TEXT: usize = 4_000;
+pub(crate) const MAX_TEXT: usize = 4_000;
 
 /// A transcript chosen for the drill-down, with its full record.
 #[derive(Debug, Clone)]
@@ -58,7 +58,7 @@ type Cell<'a> = ((ScenarioKind, u8), Vec<(usize, &'a Episode)>);
 
 /// (model, episode index) pairs in embedding order: round 0 of every cell,
 /// then round 1, and so on.
-pub fn choose(data: &Dataset, per_cell: usize) -> Vec<(usize, usize)> {
+pub(crate) fn choose(data: &Dataset, per_cell: usize) -> Vec<(usize, usize)> {
     let mut ranked: Vec<(usize, usize, usize)> = Vec::new(); // (rank, model, episode)
     for (m, model) in data.models.iter().enumerate() {
         let mut cells: Vec<Cell> = Vec::new();
@@ -83,7 +83,7 @@ pub fn choose(data: &Dataset, per_cell: usize) -> Vec<(usize, usize)> {
 type RunItems = (usize, Vec<(usize, usize, usize)>);
 
 /// Read the chosen episodes' full lines (one open per run file).
-pub fn load(data: &Dataset, chosen: &[(usize, usize)]) -> Result<Vec<Loaded>, ReportError> {
+pub(crate) fn load(data: &Dataset, chosen: &[(usize, usize)]) -> Result<Vec<Loaded>, ReportError> {
     let mut by_run: Vec<Vec<(usize, usize, usize)>> = vec![Vec::new(); data.runs.len()]; // (order, model, episode)
     for (order, &(m, i)) in chosen.iter().enumerate() {
         let run = data.models[m].episodes[i].source.run as usize;
@@ -221,7 +221,7 @@ impl Interner {
 }
 
 /// Build the embedded data. `loaded` in embedding order.
-pub fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> DrillData {
+pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> DrillData {
     let mut table = Interner::default();
     let mut transcripts = Vec::new();
     let mut transcript_of: HashMap<(usize, usize), i32> = HashMap::new();
@@ -302,22 +302,22 @@ pub fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> DrillData {
 }
 
 impl DrillData {
-    pub fn transcripts(&self) -> usize {
+    pub(crate) fn transcripts(&self) -> usize {
         self.transcripts.len()
     }
 
-    pub fn per_cell(&self) -> usize {
+    pub(crate) fn per_cell(&self) -> usize {
         self.per_cell
     }
 
-    pub fn dropped(&self) -> usize {
+    pub(crate) fn dropped(&self) -> usize {
         self.dropped
     }
 }
 
 /// JSON safe inside a `<script>` element: `<` is written as `\u003c`, so
 /// no `</script>` or `<!--` can appear.
-pub fn script_json<T: Serialize>(value: &T) -> String {
+pub(crate) fn script_json<T: Serialize>(value: &T) -> String {
     serde_json::to_string(value).unwrap_or_else(|_| "null".into()).replace('<', "\\u003c")
 }
 

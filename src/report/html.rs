@@ -5,7 +5,7 @@
 
 use super::Report;
 use super::drill::{DrillData, script_json};
-use super::table::esc;
+use crate::export::{Exporter, HtmlExporter, esc};
 use std::fmt::Write;
 
 const CSS: &str = r#"
@@ -185,7 +185,7 @@ const JS: &str = r#"
 "#;
 
 /// The whole page.
-pub fn render(report: &Report, drill: &DrillData) -> String {
+pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     let mut s = String::with_capacity(1 << 20);
     let _ = write!(
         s,
@@ -217,8 +217,8 @@ pub fn render(report: &Report, drill: &DrillData) -> String {
     for w in &report.warnings {
         let _ = write!(s, "<p class=\"warn\">{}</p>", esc(w));
     }
-    let tables = report.display_tables();
-    let table = |name: &str| tables.iter().find(|t| t.name == name).map(|t| t.html()).unwrap_or_default();
+    let tables = report.tables();
+    let table = |name: &str| tables.iter().find(|t| t.name == name).map(|t| HtmlExporter.render(t)).unwrap_or_default();
     let _ = write!(s, "<h2 id=\"leaderboard\">Leaderboard</h2>{}", table("leaderboard"));
     s.push_str("<h2 id=\"figures\">Figures</h2>");
     for p in report.plots.iter().filter(|p| !p.name.starts_with("trajectory_")) {
@@ -262,7 +262,7 @@ pub fn render(report: &Report, drill: &DrillData) -> String {
         super::drill::MAX_TEXT
     );
     s.push_str("<h2 id=\"runs\">Runs</h2>");
-    s.push_str(&report.runs_table().html());
+    s.push_str(&HtmlExporter.render(&report.runs_table()));
     s.push_str("<h2 id=\"definitions\">Definitions</h2><dl class=\"defs\">");
     for (term, def) in super::DEFINITIONS {
         let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", esc(term), esc(def));

@@ -6,8 +6,8 @@
 //! leaderboard, per-tier, outcome and cost tables; [`paired`] the pairwise
 //! comparisons; [`passk`] pass^k; [`reference`] the expert ceiling and
 //! `always_proceed` floor; [`boot`] the report's bootstraps; [`drill`] the
-//! drill-down data; [`plots`] one file per kind of figure; [`html`] the page;
-//! [`table`] the table type and its renderings.
+//! drill-down data; [`plots`] one file per kind of figure; [`html`] the page.
+//! Tables are [`crate::export`] tables.
 
 pub mod boot;
 pub mod drill;
@@ -17,9 +17,9 @@ pub mod paired;
 pub mod passk;
 pub mod plots;
 pub mod reference;
-pub mod table;
 pub mod tables;
 
+use crate::export::{Cell, Column, CsvExporter, Exporter, Format, MarkdownExporter, Table};
 use crate::scenario::Tier;
 use load::{Dataset, ModelData, RunSource};
 use paired::PairRow;
@@ -28,11 +28,10 @@ use plots::Plot;
 use reference::References;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use table::Table;
 use tables::{CostRow, Leaderboard, OutcomeRow, TierRow, tiers_label};
 
 /// The least number of bootstrap resamples accepted (SPEC section 8).
-pub const MIN_RESAMPLES: usize = 10_000;
+pub(crate) const MIN_RESAMPLES: usize = 10_000;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
@@ -59,7 +58,7 @@ pub enum ReportError {
 
 impl ReportError {
     /// Bad input (exit code 2), as opposed to an I/O failure.
-    pub fn is_input(&self) -> bool {
+    pub(crate) fn is_input(&self) -> bool {
         !matches!(self, ReportError::Io { .. })
     }
 }
@@ -138,7 +137,7 @@ const INTERVAL: &str = "95% percentile bootstrap: type-7 (linear interpolation) 
                         sorted resample statistics";
 
 /// Term and definition, shown in report.md and report.html.
-pub const DEFINITIONS: [(&str, &str); 8] = [
+pub(crate) const DEFINITIONS: [(&str, &str); 8] = [
     (
         "Success",
         "Share of episodes ending with the ego at its goal without a collision. Per scenario, the unit is a seed \
@@ -273,41 +272,41 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
 }
 
 impl Report {
-    /// The tables in display form, in report order.
-    pub fn display_tables(&self) -> Vec<Table> {
+    /// The tables in report order; each is written as `{name}.csv` too.
+    pub(crate) fn tables(&self) -> Vec<Table> {
         let mut t = vec![
             self.leaderboard.table(self.resamples),
             tables::tier_table(&self.tier_rows),
-            tables::outcome_table(&self.outcomes, &self.tiers, false),
+            tables::outcome_table(&self.outcomes, &self.tiers),
             tables::cost_table(&self.costs),
             paired::paired_table(&self.paired, &self.tiers, self.resamples),
         ];
         if !self.pass_k.is_empty() {
-            t.push(passk::pass_k_table(&self.pass_k, &self.tiers, false));
+            t.push(passk::pass_k_table(&self.pass_k, &self.tiers));
         }
         t
     }
 
-    /// The tables in CSV form (one numeric column per figure).
-    pub fn csv_tables(&self) -> Vec<Table> {
-        let mut t = vec![
-            self.leaderboard.csv(),
-            tables::tier_csv(&self.tier_rows),
-            tables::outcome_table(&self.outcomes, &self.tiers, true),
-            tables::cost_csv(&self.costs),
-            paired::paired_csv(&self.paired),
-        ];
-        if !self.pass_k.is_empty() {
-            t.push(passk::pass_k_table(&self.pass_k, &self.tiers, true));
-        }
-        t
+    /// The table named `name` (a CSV file stem: `leaderboard`, `tiers`,
+    /// `outcomes`, `errors_cost`, `paired`, `pass_k`, `runs`) in `format`.
+    pub fn render_table(&self, name: &str, format: Format) -> Option<String> {
+        let table = self.tables().into_iter().chain([self.runs_table()]).find(|t| t.name == name)?;
+        Some(format.exporter().render(&table))
     }
 
-    pub fn runs_table(&self) -> Table {
+    pub(crate) fn runs_table(&self) -> Table {
         let mut t = Table::new(
             "runs",
             "Run directories",
-            &["model", "directory", "config", "shard", "episodes", "errors.jsonl lines", "unreadable lines"],
+            vec![
+                Column::new("model", "model"),
+                Column::new("directory", "directory"),
+                Column::new("config", "config"),
+                Column::new("shard", "shard"),
+                Column::new("episodes", "episodes"),
+                Column::new("errors.jsonl lines", "infra_error_lines"),
+                Column::new("unreadable lines", "bad_lines"),
+            ],
         );
         for r in &self.runs {
             let label = self
@@ -316,20 +315,20 @@ impl Report {
                 .find(|m| m.config_hash == r.config_hash && m.model == r.model)
                 .map_or(r.model.clone(), |m| m.label.clone());
             t.push(vec![
-                label,
-                r.dir.display().to_string(),
-                r.config_hash.chars().take(8).collect(),
-                r.shard.clone().unwrap_or_else(|| "-".into()),
-                r.episodes.to_string(),
-                r.infra_error_lines.to_string(),
-                r.bad_lines.to_string(),
+                Cell::Text(label),
+                Cell::text(r.dir.display().to_string()),
+                Cell::Text(r.config_hash.chars().take(8).collect()),
+                r.shard.clone().map_or(Cell::Missing, Cell::Text),
+                Cell::Int(r.episodes as u64),
+                Cell::Int(r.infra_error_lines as u64),
+                Cell::Int(r.bad_lines as u64),
             ]);
         }
         t
     }
 
     /// `report.md`: every table, the figures (linked), warnings, definitions.
-    pub fn markdown(&self) -> String {
+    pub(crate) fn markdown(&self) -> String {
         let mut s = String::from("# negotiator report\n\n");
         s.push_str(&format!(
             "{} model(s), {} run director{}, {} episodes; leaderboard scope: {}; {} bootstrap resamples.\n\n",
@@ -343,18 +342,19 @@ impl Report {
         for w in &self.warnings {
             s.push_str(&format!("> warning: {w}\n\n"));
         }
-        let tables = self.display_tables();
-        s.push_str(&tables[0].markdown(2));
+        let md = MarkdownExporter { heading_level: 2 };
+        let tables = self.tables();
+        s.push_str(&md.render(&tables[0]));
         s.push_str("\n## Figures\n\n");
         for p in &self.plots {
             s.push_str(&format!("![{}](plots/{}.svg)\n\n*{}*\n\n", p.title.replace(['[', ']'], ""), p.name, p.caption));
         }
         for t in &tables[1..] {
             s.push('\n');
-            s.push_str(&t.markdown(2));
+            s.push_str(&md.render(t));
         }
         s.push('\n');
-        s.push_str(&self.runs_table().markdown(2));
+        s.push_str(&md.render(&self.runs_table()));
         s.push_str("\n## Definitions\n\n");
         for (term, def) in DEFINITIONS {
             s.push_str(&format!("- **{term}.** {def}\n"));
@@ -397,8 +397,8 @@ pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
         source: std::io::Error::other(e),
     })?;
     put(out.join("report.json"), format!("{json}\n").as_bytes())?;
-    for t in r.csv_tables() {
-        put(out.join(format!("{}.csv", t.name)), t.csv().as_bytes())?;
+    for t in r.tables() {
+        put(out.join(format!("{}.csv", t.name)), CsvExporter.render(&t).as_bytes())?;
     }
     for p in &r.plots {
         put(plots_dir.join(format!("{}.svg", p.name)), p.file_text().as_bytes())?;

@@ -13,8 +13,8 @@
 
 use super::boot::{paired_ci, seed_for};
 use super::load::ModelData;
-use super::table::{Table, f2, f4, with_ci};
 use super::tables::{Unit, tiers_label, units};
+use crate::export::{Cell, Column, Style, Table};
 use crate::par::par_map;
 use crate::scenario::Tier;
 use crate::stats::{Interval, mcnemar_exact};
@@ -39,7 +39,7 @@ pub struct PairRow {
 }
 
 /// Compare `a` and `b` on their shared keys within `tiers`.
-pub fn compare(a: &ModelData, b: &ModelData, tiers: &[Tier], resamples: usize, base: u64) -> PairRow {
+pub(crate) fn compare(a: &ModelData, b: &ModelData, tiers: &[Tier], resamples: usize, base: u64) -> PairRow {
     let ua = units(&a.episodes, tiers);
     let ub = units(&b.episodes, tiers);
     let (mut va, mut vb) = (Vec::new(), Vec::new());
@@ -107,40 +107,41 @@ fn first_shared_rollout(a: &ModelData, ua: &Unit, b: &ModelData, ub: &Unit) -> O
 }
 
 /// Every pair, in the order given (leaderboard order: A ranks above B).
-pub fn all_pairs(models: &[&ModelData], tiers: &[Tier], resamples: usize, base: u64) -> Vec<PairRow> {
+pub(crate) fn all_pairs(models: &[&ModelData], tiers: &[Tier], resamples: usize, base: u64) -> Vec<PairRow> {
     let pairs: Vec<(usize, usize)> =
         (0..models.len()).flat_map(|i| (i + 1..models.len()).map(move |j| (i, j))).collect();
     par_map(&pairs, |&(i, j)| compare(models[i], models[j], tiers, resamples, base))
 }
 
-fn p_value(p: f64) -> String {
-    if !p.is_finite() {
-        "-".into()
-    } else if p < 0.001 {
-        "<0.001".into()
-    } else {
-        format!("{p:.3}")
-    }
-}
-
-pub fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -> Table {
+pub(crate) fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -> Table {
     let mut t = Table::new(
         "paired",
         format!("Paired comparisons on shared seeds ({})", tiers_label(tiers)),
-        &["A", "B", "shared", "success A", "success B", "A − B [95% CI]", "A only", "B only", "McNemar p", "verdict"],
+        vec![
+            Column::new("A", "a"),
+            Column::new("B", "b"),
+            Column::new("shared", "shared_keys"),
+            Column::new("success A", "success_a"),
+            Column::new("success B", "success_b"),
+            Column::new("A − B [95% CI]", "diff").style(Style::SignedInterval),
+            Column::new("A only", "a_only"),
+            Column::new("B only", "b_only"),
+            Column::new("McNemar p", "mcnemar_p").style(Style::PValue),
+            Column::new("verdict", "verdict"),
+        ],
     );
     for r in rows {
         t.push(vec![
-            r.a.clone(),
-            r.b.clone(),
-            r.keys.to_string(),
-            f2(r.success_a),
-            f2(r.success_b),
-            signed_ci(&r.diff),
-            r.a_only.to_string(),
-            r.b_only.to_string(),
-            p_value(r.mcnemar_p),
-            r.verdict.clone(),
+            Cell::text(&r.a),
+            Cell::text(&r.b),
+            Cell::Int(r.keys as u64),
+            Cell::Float(r.success_a),
+            Cell::Float(r.success_b),
+            Cell::Interval(r.diff),
+            Cell::Int(r.a_only as u64),
+            Cell::Int(r.b_only as u64),
+            Cell::Float(r.mcnemar_p),
+            Cell::text(&r.verdict),
         ]);
     }
     t.note(format!(
@@ -148,47 +149,5 @@ pub fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -> Table
          ({resamples} resamples); 'tied' when it covers 0. A only / B only: discordant pairs (one succeeded, the \
          other failed) for the exact McNemar test."
     ));
-    t
-}
-
-fn signed_ci(i: &Interval) -> String {
-    if i.lo.is_finite() { format!("{:+.2} [{:+.2}, {:+.2}]", i.estimate, i.lo, i.hi) } else { with_ci(i) }
-}
-
-pub fn paired_csv(rows: &[PairRow]) -> Table {
-    let mut t = Table::new(
-        "paired",
-        "Paired comparisons",
-        &[
-            "a",
-            "b",
-            "shared_keys",
-            "success_a",
-            "success_b",
-            "diff",
-            "diff_lo",
-            "diff_hi",
-            "a_only",
-            "b_only",
-            "mcnemar_p",
-            "verdict",
-        ],
-    );
-    for r in rows {
-        t.push(vec![
-            r.a.clone(),
-            r.b.clone(),
-            r.keys.to_string(),
-            f4(r.success_a),
-            f4(r.success_b),
-            f4(r.diff.estimate),
-            f4(r.diff.lo),
-            f4(r.diff.hi),
-            r.a_only.to_string(),
-            r.b_only.to_string(),
-            if r.mcnemar_p.is_finite() { format!("{:.6e}", r.mcnemar_p) } else { String::new() },
-            r.verdict.clone(),
-        ]);
-    }
     t
 }

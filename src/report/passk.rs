@@ -5,8 +5,8 @@
 //! rollouts count; the others are excluded and their number shown.
 
 use super::load::ModelData;
-use super::table::{Table, f2, f4};
 use super::tables::{tiers_label, units};
+use crate::export::{Cell, Column, Table};
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::mean_pass_hat_k;
 use serde::Serialize;
@@ -27,7 +27,7 @@ pub struct PassKRow {
 }
 
 /// Rows for every model with r > 1: all scenarios, then each scenario.
-pub fn pass_k_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<PassKRow> {
+pub(crate) fn pass_k_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<PassKRow> {
     let mut out = Vec::new();
     for m in models.iter().filter(|m| m.rollouts > 1) {
         let r = m.rollouts;
@@ -52,31 +52,32 @@ pub fn pass_k_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<PassKRow> {
     out
 }
 
-pub fn pass_k_table(rows: &[PassKRow], tiers: &[Tier], csv: bool) -> Table {
+pub(crate) fn pass_k_table(rows: &[PassKRow], tiers: &[Tier]) -> Table {
     let max_r = rows.iter().map(|r| r.r).max().unwrap_or(1) as usize;
-    let mut headers: Vec<String> =
-        ["model", "scenario", "r", "seeds used", "seeds excluded"].iter().map(|s| s.to_string()).collect();
-    if csv {
-        headers = ["model", "scenario", "r", "seeds", "excluded"].iter().map(|s| s.to_string()).collect();
-    }
-    headers.extend((1..=max_r).map(|k| if csv { format!("pass_{k}") } else { format!("pass^{k}") }));
-    let mut t = Table {
-        name: "pass_k".into(),
-        title: format!("pass^k over seeds with all r rollouts ({})", tiers_label(tiers)),
-        headers,
-        ..Table::default()
-    };
+    let mut columns = vec![
+        Column::new("model", "model"),
+        Column::new("scenario", "scenario"),
+        Column::new("r", "r"),
+        Column::new("seeds used", "seeds"),
+        Column::new("seeds excluded", "excluded"),
+    ];
+    columns.extend((1..=max_r).map(|k| Column::new(format!("pass^{k}"), format!("pass_{k}"))));
+    let mut t =
+        Table::new("pass_k", format!("pass^k over seeds with all r rollouts ({})", tiers_label(tiers)), columns);
     for r in rows {
-        let mut row =
-            vec![r.model.clone(), r.scope.clone(), r.r.to_string(), r.seeds.to_string(), r.excluded.to_string()];
-        row.extend((0..max_r).map(|k| r.pass.get(k).map_or(String::new(), |&p| if csv { f4(p) } else { f2(p) })));
+        let mut row = vec![
+            Cell::text(&r.model),
+            Cell::text(&r.scope),
+            Cell::Int(r.r.into()),
+            Cell::Int(r.seeds as u64),
+            Cell::Int(r.excluded as u64),
+        ];
+        row.extend((0..max_r).map(|k| r.pass.get(k).map_or(Cell::Blank, |&p| Cell::Float(p))));
         t.push(row);
     }
-    if !csv {
-        t.note(
-            "pass^k = mean over seeds of C(c, k) / C(r, k), c successes among the seed's r rollouts: the chance that \
-             k rollouts of one seed all succeed. Seeds missing a rollout are excluded (counted above).",
-        );
-    }
+    t.note(
+        "pass^k = mean over seeds of C(c, k) / C(r, k), c successes among the seed's r rollouts: the chance that k \
+         rollouts of one seed all succeed. Seeds missing a rollout are excluded (counted above).",
+    );
     t
 }

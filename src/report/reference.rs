@@ -11,8 +11,8 @@ use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub const CEILING: &str = "expert";
-pub const FLOOR: &str = "always_proceed";
+pub(crate) const CEILING: &str = "expert";
+pub(crate) const FLOOR: &str = "always_proceed";
 
 /// One baseline cell (normal-approximation intervals, as in the table).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -41,14 +41,14 @@ impl References {
 
     /// Success of `policy` on `scenario`, averaged over `tiers` (every tier
     /// must be in the table).
-    pub fn success(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
+    pub(crate) fn success(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
         let xs: Option<Vec<f64>> = tiers.iter().map(|&t| self.cell(policy, scenario, t).map(|c| c.success)).collect();
         let xs = xs?;
         (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
     }
 
     /// Decision correctness of `policy`, averaged like [`Self::success`].
-    pub fn correctness(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
+    pub(crate) fn correctness(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
         let xs: Option<Vec<f64>> =
             tiers.iter().map(|&t| self.cell(policy, scenario, t).map(|c| c.decision_correctness)).collect();
         let xs = xs?;
@@ -59,7 +59,7 @@ impl References {
 /// Read `dir/baselines.csv`. `explicit`: the directory was given with
 /// `--baselines` (then its absence is an error; otherwise the references
 /// are computed in-process).
-pub fn load(dir: &Path, explicit: bool) -> Result<References, ReportError> {
+pub(crate) fn load(dir: &Path, explicit: bool) -> Result<References, ReportError> {
     let path = dir.join("baselines.csv");
     let bad = |message: String| ReportError::Baselines { path: path.display().to_string(), message };
     let text = match std::fs::read_to_string(&path) {
@@ -82,7 +82,7 @@ pub fn load(dir: &Path, explicit: bool) -> Result<References, ReportError> {
 }
 
 /// The two reference policies on every scenario and tier, n = 200.
-pub fn compute() -> References {
+pub(crate) fn compute() -> References {
     let spec = GridSpec {
         scenarios: ScenarioKind::ALL.to_vec(),
         tiers: Tier::ALL.to_vec(),

@@ -8,8 +8,8 @@
 use super::boot::{cell_seed, clustered_mean_of_means_ci, mean_ci, seed_for};
 use super::load::{Episode, ModelData, same_unit};
 use super::reference::{CEILING, FLOOR, References};
-use super::table::{Table, f2, f4, with_ci};
 use crate::episode::Outcome;
+use crate::export::{Cell, Column, Style, Table};
 use crate::par::par_map;
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, mean, quantile};
@@ -28,22 +28,22 @@ pub struct Unit {
 }
 
 impl Unit {
-    pub fn rollouts(&self) -> u32 {
+    pub(crate) fn rollouts(&self) -> u32 {
         (self.end - self.start) as u32
     }
 
     /// Success rate over the seed's rollouts.
-    pub fn value(&self) -> f64 {
+    pub(crate) fn value(&self) -> f64 {
         f64::from(self.successes) / f64::from(self.rollouts())
     }
 
-    pub fn key(&self) -> (ScenarioKind, Tier, u64) {
+    pub(crate) fn key(&self) -> (ScenarioKind, Tier, u64) {
         (self.scenario, self.tier, self.seed)
     }
 }
 
 /// The units of sorted episodes whose tier is in `tiers`, in key order.
-pub fn units(episodes: &[Episode], tiers: &[Tier]) -> Vec<Unit> {
+pub(crate) fn units(episodes: &[Episode], tiers: &[Tier]) -> Vec<Unit> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < episodes.len() {
@@ -58,7 +58,7 @@ pub fn units(episodes: &[Episode], tiers: &[Tier]) -> Vec<Unit> {
     out
 }
 
-pub fn tiers_label(tiers: &[Tier]) -> String {
+pub(crate) fn tiers_label(tiers: &[Tier]) -> String {
     match tiers {
         [t] => format!("tier {t}"),
         ts => format!("tiers {}", ts.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(", ")),
@@ -170,7 +170,7 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
     }
 }
 
-pub fn leaderboard(
+pub(crate) fn leaderboard(
     models: &[ModelData],
     refs: &References,
     tiers: &[Tier],
@@ -206,36 +206,48 @@ pub fn leaderboard(
     Leaderboard { tiers: tiers.to_vec(), scenarios, rows, references, reference_source: refs.source.clone() }
 }
 
-fn opt2(x: Option<f64>) -> String {
-    x.map_or("-".into(), f2)
-}
-
-fn opt4(x: Option<f64>) -> String {
-    x.map_or(String::new(), f4)
-}
-
 impl Leaderboard {
-    pub fn title(&self) -> String {
+    pub(crate) fn title(&self) -> String {
         format!("Success rates ({}; 95% percentile bootstrap CIs)", tiers_label(&self.tiers))
     }
 
-    pub fn table(&self, resamples: usize) -> Table {
-        let mut headers: Vec<String> = vec!["model".into(), "avg. [95% CI]".into()];
-        headers.extend(self.scenarios.iter().map(|s| format!("{s} [95% CI]")));
-        headers.extend(["yield DC".to_string(), "episodes".to_string()]);
-        let mut t = Table { name: "leaderboard".into(), title: self.title(), headers, ..Table::default() };
+    /// Models, then the reference rows. The CSV adds each scenario's seeds
+    /// (`{scenario}_n`), the row kind and the tiers.
+    pub(crate) fn table(&self, resamples: usize) -> Table {
+        let mut columns = vec![
+            Column::new("model", "model"),
+            Column::data("kind"),
+            Column::new("avg. [95% CI]", "avg").style(Style::Interval),
+        ];
+        for s in &self.scenarios {
+            columns.push(Column::new(format!("{s} [95% CI]"), s.to_string()).style(Style::Interval));
+            columns.push(Column::data(format!("{s}_n")));
+        }
+        columns.extend([
+            Column::new("yield DC", "yield_dc"),
+            Column::new("episodes", "episodes"),
+            Column::data("tiers"),
+        ]);
+        let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
+        let mut t = Table::new("leaderboard", self.title(), columns);
         for r in &self.rows {
-            let mut row = vec![r.model.clone(), with_ci(&r.average)];
-            row.extend(r.scenarios.iter().map(|c| c.as_ref().map_or("-".into(), |c| with_ci(&c.success))));
-            row.push(opt2(r.yield_dc));
-            row.push(r.episodes.to_string());
+            let mut row = vec![Cell::text(&r.model), Cell::text("model"), Cell::Interval(r.average)];
+            for c in &r.scenarios {
+                match c {
+                    Some(c) => row.extend([Cell::Interval(c.success), Cell::Int(c.seeds as u64)]),
+                    None => row.extend([Cell::Missing, Cell::Int(0)]),
+                }
+            }
+            row.extend([Cell::opt(r.yield_dc), Cell::Int(r.episodes as u64), Cell::text(&tiers)]);
             t.push(row);
         }
+        let level = |x: Option<f64>| x.map_or(Cell::Missing, Cell::estimate);
         for r in &self.references {
-            let mut row = vec![r.label.clone(), opt2(r.average)];
-            row.extend(r.scenarios.iter().map(|x| opt2(*x)));
-            row.push(opt2(r.yield_dc));
-            row.push(String::new());
+            let mut row = vec![Cell::text(&r.label), Cell::text("reference"), level(r.average)];
+            for x in &r.scenarios {
+                row.extend([level(*x), Cell::Blank]);
+            }
+            row.extend([Cell::opt(r.yield_dc), Cell::Blank, Cell::text(&tiers)]);
             t.push(row);
         }
         t.note(format!(
@@ -247,40 +259,6 @@ impl Leaderboard {
             t.note(
                 "'-': the model has no episode of that scenario in scope; its average is over the scenarios it has.",
             );
-        }
-        t
-    }
-
-    pub fn csv(&self) -> Table {
-        let mut headers: Vec<String> =
-            ["model", "kind", "avg", "avg_lo", "avg_hi"].iter().map(|s| s.to_string()).collect();
-        for s in &self.scenarios {
-            headers.extend([format!("{s}"), format!("{s}_lo"), format!("{s}_hi"), format!("{s}_n")]);
-        }
-        headers.extend(["yield_dc".to_string(), "episodes".to_string(), "tiers".to_string()]);
-        let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
-        let mut t = Table { name: "leaderboard".into(), title: self.title(), headers, ..Table::default() };
-        for r in &self.rows {
-            let mut row =
-                vec![r.model.clone(), "model".into(), f4(r.average.estimate), f4(r.average.lo), f4(r.average.hi)];
-            for c in &r.scenarios {
-                match c {
-                    Some(c) => {
-                        row.extend([f4(c.success.estimate), f4(c.success.lo), f4(c.success.hi), c.seeds.to_string()])
-                    }
-                    None => row.extend([String::new(), String::new(), String::new(), "0".into()]),
-                }
-            }
-            row.extend([opt4(r.yield_dc), r.episodes.to_string(), tiers.clone()]);
-            t.push(row);
-        }
-        for r in &self.references {
-            let mut row = vec![r.label.clone(), "reference".into(), opt4(r.average), String::new(), String::new()];
-            for x in &r.scenarios {
-                row.extend([opt4(*x), String::new(), String::new(), String::new()]);
-            }
-            row.extend([opt4(r.yield_dc), String::new(), tiers.clone()]);
-            t.push(row);
         }
         t
     }
@@ -306,7 +284,7 @@ pub struct TierRow {
 }
 
 /// Every (model, scenario, tier) with episodes, models in `order`.
-pub fn tier_rows(models: &[&ModelData], refs: &References, resamples: usize, base: u64) -> Vec<TierRow> {
+pub(crate) fn tier_rows(models: &[&ModelData], refs: &References, resamples: usize, base: u64) -> Vec<TierRow> {
     let cells: Vec<(&ModelData, ScenarioKind, Tier)> = models
         .iter()
         .flat_map(|m| ScenarioKind::ALL.into_iter().flat_map(move |s| Tier::ALL.into_iter().map(move |t| (*m, s, t))))
@@ -333,82 +311,42 @@ pub fn tier_rows(models: &[&ModelData], refs: &References, resamples: usize, bas
     })
 }
 
-pub fn tier_table(rows: &[TierRow]) -> Table {
+pub(crate) fn tier_table(rows: &[TierRow]) -> Table {
     let mut t = Table::new(
         "tiers",
         "Per tier: success with 95% CI, outcome rates, reward and decision correctness",
-        &[
-            "model",
-            "scenario",
-            "tier",
-            "n",
-            "success [95% CI]",
-            "collision",
-            "timeout",
-            "reward",
-            "DC",
-            "expert",
-            "floor",
+        vec![
+            Column::new("model", "model"),
+            Column::new("scenario", "scenario"),
+            Column::new("tier", "tier"),
+            Column::data("seeds"),
+            Column::new("n", "episodes"),
+            Column::new("success [95% CI]", "success").style(Style::Interval),
+            Column::new("collision", "collision"),
+            Column::new("timeout", "timeout"),
+            Column::new("reward", "reward"),
+            Column::new("DC", "decision_correctness"),
+            Column::new("expert", "expert"),
+            Column::new("floor", "always_proceed"),
         ],
     );
     for r in rows {
         t.push(vec![
-            r.model.clone(),
-            r.scenario.to_string(),
-            r.tier.to_string(),
-            r.episodes.to_string(),
-            with_ci(&r.success),
-            f2(r.collision),
-            f2(r.timeout),
-            f2(r.reward),
-            f2(r.decision_correctness),
-            opt2(r.expert),
-            opt2(r.floor),
+            Cell::text(&r.model),
+            Cell::text(r.scenario.to_string()),
+            Cell::Int(r.tier.number().into()),
+            Cell::Int(r.seeds as u64),
+            Cell::Int(r.episodes as u64),
+            Cell::Interval(r.success),
+            Cell::Float(r.collision),
+            Cell::Float(r.timeout),
+            Cell::Float(r.reward),
+            Cell::Float(r.decision_correctness),
+            Cell::opt(r.expert),
+            Cell::opt(r.floor),
         ]);
     }
     t.note("n: episodes. DC: decision correctness. expert / floor: the reference policies' success on the same cell.");
-    t
-}
-
-pub fn tier_csv(rows: &[TierRow]) -> Table {
-    let mut t = Table::new(
-        "tiers",
-        "Per tier",
-        &[
-            "model",
-            "scenario",
-            "tier",
-            "seeds",
-            "episodes",
-            "success",
-            "success_lo",
-            "success_hi",
-            "collision",
-            "timeout",
-            "reward",
-            "decision_correctness",
-            "expert",
-            "always_proceed",
-        ],
-    );
-    for r in rows {
-        t.push(vec![
-            r.model.clone(),
-            r.scenario.to_string(),
-            r.tier.to_string(),
-            r.seeds.to_string(),
-            r.episodes.to_string(),
-            f4(r.success.estimate),
-            f4(r.success.lo),
-            f4(r.success.hi),
-            f4(r.collision),
-            f4(r.timeout),
-            f4(r.reward),
-            f4(r.decision_correctness),
-            opt4(r.expert),
-            opt4(r.floor),
-        ]);
-    }
     t
 }
 
@@ -427,7 +365,7 @@ pub struct OutcomeRow {
     pub reward: f64,
 }
 
-pub fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<OutcomeRow> {
+pub(crate) fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<OutcomeRow> {
     let mut out = Vec::new();
     for m in models {
         for s in ScenarioKind::ALL {
@@ -450,30 +388,36 @@ pub fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<OutcomeRow> {
     out
 }
 
-pub fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier], csv: bool) -> Table {
-    let title = format!("Outcome decomposition ({})", tiers_label(tiers));
-    let headers: &[&str] = if csv {
-        &["model", "scenario", "episodes", "success", "collision", "timeout", "decision_correctness", "reward"]
-    } else {
-        &["model", "scenario", "n", "success", "collision", "timeout", "DC", "DC - success", "reward"]
-    };
-    let mut t = Table::new("outcomes", title, headers);
+pub(crate) fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier]) -> Table {
+    let mut t = Table::new(
+        "outcomes",
+        format!("Outcome decomposition ({})", tiers_label(tiers)),
+        vec![
+            Column::new("model", "model"),
+            Column::new("scenario", "scenario"),
+            Column::new("n", "episodes"),
+            Column::new("success", "success"),
+            Column::new("collision", "collision"),
+            Column::new("timeout", "timeout"),
+            Column::new("DC", "decision_correctness"),
+            Column::display("DC - success").style(Style::Signed),
+            Column::new("reward", "reward"),
+        ],
+    );
     for r in rows {
-        let mut row = vec![r.model.clone(), r.scenario.to_string(), r.episodes.to_string()];
-        if csv {
-            row.extend([r.success, r.collision, r.timeout, r.decision_correctness, r.reward].map(f4));
-        } else {
-            row.extend([r.success, r.collision, r.timeout, r.decision_correctness].map(f2));
-            row.push(format!("{:+.2}", r.decision_correctness - r.success));
-            row.push(f2(r.reward));
-        }
-        t.push(row);
+        t.push(vec![
+            Cell::text(&r.model),
+            Cell::text(r.scenario.to_string()),
+            Cell::Int(r.episodes as u64),
+            Cell::Float(r.success),
+            Cell::Float(r.collision),
+            Cell::Float(r.timeout),
+            Cell::Float(r.decision_correctness),
+            Cell::Float(r.decision_correctness - r.success),
+            Cell::Float(r.reward),
+        ]);
     }
-    if !csv {
-        t.note(
-            "DC - success > 0: right calls that did not become successes (typically over-caution ending in a timeout).",
-        );
-    }
+    t.note("DC - success > 0: right calls that did not become successes (typically over-caution ending in a timeout).");
     t
 }
 
@@ -503,7 +447,7 @@ pub struct CostRow {
     pub latency_ms_per_turn: f64,
 }
 
-pub fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
+pub(crate) fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
     models
         .iter()
         .map(|m| {
@@ -536,92 +480,62 @@ pub fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
         .collect()
 }
 
-fn int(x: f64) -> String {
-    if x.is_finite() { format!("{x:.0}") } else { "-".into() }
-}
-
-pub fn cost_table(rows: &[CostRow]) -> Table {
+/// Display: turns and latency with their rate and p95 in parentheses;
+/// the CSV has every figure in its own column.
+pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
     let mut t = Table::new(
         "errors_cost",
         "Errors, tokens and latency (all episodes)",
-        &[
-            "model",
-            "episodes",
-            "parse-error turns",
-            "episodes with parse errors",
-            "infra errors",
-            "missing",
-            "retries",
-            "tokens/ep",
-            "completion tokens/ep",
-            "latency s/ep (p95)",
-            "ms/turn",
+        vec![
+            Column::new("model", "model"),
+            Column::data("runs"),
+            Column::new("episodes", "episodes"),
+            Column::data("turns"),
+            Column::display("parse-error turns"),
+            Column::data("parse_error_turns"),
+            Column::data("parse_error_rate"),
+            Column::new("episodes with parse errors", "episodes_with_parse_errors"),
+            Column::new("infra errors", "infra_errors"),
+            Column::new("missing", "missing"),
+            Column::new("retries", "retries"),
+            Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
+            Column::data("prompt_tokens_per_episode"),
+            Column::new("completion tokens/ep", "completion_tokens_per_episode").style(Style::Whole),
+            Column::display("latency s/ep (p95)"),
+            Column::data("latency_s_per_episode"),
+            Column::data("latency_s_per_episode_p95"),
+            Column::new("ms/turn", "latency_ms_per_turn").style(Style::Whole),
         ],
     );
     for r in rows {
+        let share = 100.0 * if r.turns == 0 { 0.0 } else { r.parse_error_rate };
         t.push(vec![
-            r.model.clone(),
-            r.episodes.to_string(),
-            format!("{} ({:.1}%)", r.parse_error_turns, 100.0 * if r.turns == 0 { 0.0 } else { r.parse_error_rate }),
-            r.episodes_with_parse_errors.to_string(),
-            r.infra_errors.to_string(),
-            r.missing.map_or("?".into(), |m| m.to_string()),
-            r.retries.to_string(),
-            int(r.tokens_per_episode),
-            int(r.completion_tokens_per_episode),
-            format!("{} ({})", f2(r.latency_s_per_episode), f2(r.latency_s_per_episode_p95)),
-            int(r.latency_ms_per_turn),
+            Cell::text(&r.model),
+            Cell::Int(r.runs as u64),
+            Cell::Int(r.episodes as u64),
+            Cell::Int(r.turns),
+            Cell::WithParen(Box::new(Cell::Int(r.parse_error_turns)), Box::new(Cell::Percent(share))),
+            Cell::Int(r.parse_error_turns),
+            Cell::Float(r.parse_error_rate),
+            Cell::Int(r.episodes_with_parse_errors as u64),
+            Cell::Int(r.infra_errors as u64),
+            r.missing.map_or(Cell::Unknown, |m| Cell::Int(m as u64)),
+            Cell::Int(r.retries),
+            Cell::Float(r.tokens_per_episode),
+            Cell::Float(r.prompt_tokens_per_episode),
+            Cell::Float(r.completion_tokens_per_episode),
+            Cell::WithParen(
+                Box::new(Cell::Float(r.latency_s_per_episode)),
+                Box::new(Cell::Float(r.latency_s_per_episode_p95)),
+            ),
+            Cell::Float(r.latency_s_per_episode),
+            Cell::Float(r.latency_s_per_episode_p95),
+            Cell::Float(r.latency_ms_per_turn),
         ]);
     }
     t.note(
         "Parse errors are bad driving (the turn executed the conservative stop) and count in every score. Infra errors \
          (errors.jsonl) and missing episodes are excluded from every score; re-running the eval command resumes them.",
     );
-    t
-}
-
-pub fn cost_csv(rows: &[CostRow]) -> Table {
-    let mut t = Table::new(
-        "errors_cost",
-        "Errors, tokens and latency",
-        &[
-            "model",
-            "runs",
-            "episodes",
-            "turns",
-            "parse_error_turns",
-            "parse_error_rate",
-            "episodes_with_parse_errors",
-            "infra_errors",
-            "missing",
-            "retries",
-            "tokens_per_episode",
-            "prompt_tokens_per_episode",
-            "completion_tokens_per_episode",
-            "latency_s_per_episode",
-            "latency_s_per_episode_p95",
-            "latency_ms_per_turn",
-        ],
-    );
-    for r in rows {
-        t.push(vec![
-            r.model.clone(),
-            r.runs.to_string(),
-            r.episodes.to_string(),
-            r.turns.to_string(),
-            r.parse_error_turns.to_string(),
-            f4(r.parse_error_rate),
-            r.episodes_with_parse_errors.to_string(),
-            r.infra_errors.to_string(),
-            r.missing.map_or(String::new(), |m| m.to_string()),
-            r.retries.to_string(),
-            f4(r.tokens_per_episode),
-            f4(r.prompt_tokens_per_episode),
-            f4(r.completion_tokens_per_episode),
-            f4(r.latency_s_per_episode),
-            f4(r.latency_s_per_episode_p95),
-            f4(r.latency_ms_per_turn),
-        ]);
-    }
     t
 }

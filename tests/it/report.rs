@@ -5,6 +5,7 @@
 
 use crate::serve::{Server, negotiator, scratch};
 use negotiator::episode::Outcome;
+use negotiator::export::Format;
 use negotiator::report::reference::{ReferenceCell, References};
 use negotiator::report::{self, ReportError, ReportOptions, load};
 use negotiator::rundir::record::RolloutRecord;
@@ -258,7 +259,7 @@ fn pass_k_counts_only_seeds_with_every_rollout() {
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
     // pass^1 = mean(2/3, 1, 1/3); pass^2 = mean(1/3, 1, 0); pass^3 = mean(0, 1, 0).
     assert!(close(all.pass[0], 2.0 / 3.0) && close(all.pass[1], 4.0 / 9.0) && close(all.pass[2], 1.0 / 3.0), "{all:?}");
-    let table = built.report.display_tables().into_iter().find(|t| t.name == "pass_k").unwrap().text();
+    let table = built.report.render_table("pass_k", Format::Table).unwrap();
     assert!(table.contains("seeds excluded") && table.contains("m      all             3  3           1"), "{table}");
     // The leaderboard's unit is the seed: success = mean over seeds of the rollout rates.
     let lb = &built.report.leaderboard.rows[0];
@@ -328,7 +329,7 @@ fn leaderboard_snapshot() {
     make("alpha", [18, 12, 9]);
     make("beta", [20, 6, 10]);
     let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
-    let table = built.report.display_tables()[0].markdown(3);
+    let table = built.report.render_table("leaderboard", Format::Md).unwrap();
     insta::assert_snapshot!(table, @r"
     ### Success rates (tier 1; 95% percentile bootstrap CIs)
 

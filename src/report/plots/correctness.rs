@@ -3,11 +3,11 @@
 //! right calls that did not become successes.
 
 use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Svg, rate_axis_y, text_width};
+use crate::export::f2;
 use crate::report::reference::{CEILING, FLOOR};
-use crate::report::table::f2;
 use crate::report::tables::tiers_label;
 
-pub fn plot(input: &PlotInput) -> Plot {
+pub(crate) fn plot(input: &PlotInput) -> Plot {
     let lb = input.leaderboard;
     let models = input.models();
     let (left, top, size) = (56.0, 40.0, 340.0);

@@ -13,12 +13,10 @@ mod trajectory;
 use super::drill::Loaded;
 use super::load::Dataset;
 use super::reference::References;
-use super::table::esc;
 use super::tables::{Leaderboard, OutcomeRow, TierRow};
+use crate::export::esc;
 use serde::Serialize;
 use std::fmt::Write;
-
-pub use trajectory::chosen_episodes;
 
 /// One figure.
 #[derive(Debug, Clone, Serialize)]
@@ -34,7 +32,7 @@ pub struct Plot {
 
 impl Plot {
     /// The standalone file's text (with the SVG namespace).
-    pub fn file_text(&self) -> String {
+    pub(crate) fn file_text(&self) -> String {
         format!("{}\n", self.svg.replacen("<svg ", "<svg xmlns=\"http://www.w3.org/2000/svg\" ", 1))
     }
 }
@@ -51,12 +49,12 @@ pub struct PlotInput<'a> {
 
 impl PlotInput<'_> {
     /// Model labels in leaderboard order (their colour is their position).
-    pub fn models(&self) -> Vec<&str> {
+    pub(crate) fn models(&self) -> Vec<&str> {
         self.leaderboard.rows.iter().map(|r| r.model.as_str()).collect()
     }
 }
 
-pub fn all(input: &PlotInput) -> Vec<Plot> {
+pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     let mut plots = vec![scenario_success::by_scenario(input), scenario_success::ranked_mean(input)];
     plots.push(correctness::plot(input));
     plots.push(tier_ladder::plot(input));
@@ -70,26 +68,26 @@ pub fn all(input: &PlotInput) -> Vec<Plot> {
 const PALETTE: [&str; 10] =
     ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"];
 
-pub fn color(i: usize) -> &'static str {
+pub(crate) fn color(i: usize) -> &'static str {
     PALETTE[i % PALETTE.len()]
 }
 
-pub const CEILING_COLOR: &str = "#2e7d32";
-pub const FLOOR_COLOR: &str = "#8d5524";
-pub const SUCCESS_COLOR: &str = "#59a14f";
-pub const COLLISION_COLOR: &str = "#e15759";
-pub const TIMEOUT_COLOR: &str = "#9e9e9e";
-pub const GRID: &str = "#e3e3e3";
-pub const INK: &str = "#222";
+pub(crate) const CEILING_COLOR: &str = "#2e7d32";
+pub(crate) const FLOOR_COLOR: &str = "#8d5524";
+pub(crate) const SUCCESS_COLOR: &str = "#59a14f";
+pub(crate) const COLLISION_COLOR: &str = "#e15759";
+pub(crate) const TIMEOUT_COLOR: &str = "#9e9e9e";
+pub(crate) const GRID: &str = "#e3e3e3";
+pub(crate) const INK: &str = "#222";
 
 /// A number for an SVG attribute: one decimal, no "-0.0".
-pub fn n(x: f64) -> String {
+pub(crate) fn n(x: f64) -> String {
     let x = if x.is_finite() { (x * 10.0).round() / 10.0 } else { 0.0 };
     if x == 0.0 { "0".into() } else { format!("{x}") }
 }
 
 /// Approximate width of a text in pixels at `size`.
-pub fn text_width(s: &str, size: f64) -> f64 {
+pub(crate) fn text_width(s: &str, size: f64) -> f64 {
     s.chars().count() as f64 * size * 0.58
 }
 
@@ -101,11 +99,11 @@ pub struct Svg {
 }
 
 impl Svg {
-    pub fn new(w: f64, h: f64) -> Svg {
+    pub(crate) fn new(w: f64, h: f64) -> Svg {
         Svg { w, h, body: String::new() }
     }
 
-    pub fn rect(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, extra: &str) {
+    pub(crate) fn rect(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, extra: &str) {
         let _ = write!(
             self.body,
             "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{fill}\"{extra}/>",
@@ -117,7 +115,7 @@ impl Svg {
     }
 
     /// A rectangle with a hover tooltip.
-    pub fn rect_tip(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, tip: &str) {
+    pub(crate) fn rect_tip(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, tip: &str) {
         let _ = write!(
             self.body,
             "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{fill}\"",
@@ -130,7 +128,7 @@ impl Svg {
     }
 
     #[allow(clippy::too_many_arguments)] // the coordinates and style of one primitive
-    pub fn line(&mut self, x1: f64, y1: f64, x2: f64, y2: f64, stroke: &str, width: f64, dash: Option<&str>) {
+    pub(crate) fn line(&mut self, x1: f64, y1: f64, x2: f64, y2: f64, stroke: &str, width: f64, dash: Option<&str>) {
         let dash = dash.map_or(String::new(), |d| format!(" stroke-dasharray=\"{d}\""));
         let _ = write!(
             self.body,
@@ -144,7 +142,7 @@ impl Svg {
     }
 
     /// A circle with an optional hover tooltip.
-    pub fn circle(&mut self, cx: f64, cy: f64, r: f64, fill: &str, stroke: &str, tip: Option<&str>) {
+    pub(crate) fn circle(&mut self, cx: f64, cy: f64, r: f64, fill: &str, stroke: &str, tip: Option<&str>) {
         let _ = write!(
             self.body,
             "<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"{fill}\" stroke=\"{stroke}\"",
@@ -157,7 +155,16 @@ impl Svg {
 
     /// A marker: 0 circle, 1 square, 2 triangle, 3 diamond.
     #[allow(clippy::too_many_arguments)] // the coordinates and style of one primitive
-    pub fn marker(&mut self, shape: usize, cx: f64, cy: f64, r: f64, fill: &str, stroke: &str, tip: Option<&str>) {
+    pub(crate) fn marker(
+        &mut self,
+        shape: usize,
+        cx: f64,
+        cy: f64,
+        r: f64,
+        fill: &str,
+        stroke: &str,
+        tip: Option<&str>,
+    ) {
         match shape % 4 {
             0 => self.circle(cx, cy, r, fill, stroke, tip),
             1 => {
@@ -193,7 +200,7 @@ impl Svg {
     }
 
     /// Text; `anchor` is start, middle or end; `extra` more attributes.
-    pub fn text(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, extra: &str) {
+    pub(crate) fn text(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, extra: &str) {
         let fill = if extra.contains(" fill=") { String::new() } else { format!(" fill=\"{INK}\"") };
         let _ = write!(
             self.body,
@@ -205,7 +212,7 @@ impl Svg {
         );
     }
 
-    pub fn polyline(&mut self, pts: &[(f64, f64)], stroke: &str, width: f64, dash: Option<&str>) {
+    pub(crate) fn polyline(&mut self, pts: &[(f64, f64)], stroke: &str, width: f64, dash: Option<&str>) {
         if pts.len() < 2 {
             return;
         }
@@ -218,7 +225,14 @@ impl Svg {
         );
     }
 
-    pub fn polygon(&mut self, pts: &[(f64, f64)], fill: &str, fill_opacity: f64, stroke: &str, dash: Option<&str>) {
+    pub(crate) fn polygon(
+        &mut self,
+        pts: &[(f64, f64)],
+        fill: &str,
+        fill_opacity: f64,
+        stroke: &str,
+        dash: Option<&str>,
+    ) {
         let dash = dash.map_or(String::new(), |d| format!(" stroke-dasharray=\"{d}\""));
         let _ = write!(
             self.body,
@@ -229,7 +243,7 @@ impl Svg {
     }
 
     /// A horizontal legend entry: a swatch and a label; returns its width.
-    pub fn legend_item(&mut self, x: f64, y: f64, color: &str, label: &str, dashed: bool) -> f64 {
+    pub(crate) fn legend_item(&mut self, x: f64, y: f64, color: &str, label: &str, dashed: bool) -> f64 {
         if dashed {
             self.line(x, y - 4.0, x + 18.0, y - 4.0, color, 2.0, Some("5 3"));
         } else {
@@ -240,7 +254,7 @@ impl Svg {
         lx - x + text_width(label, 11.0) + 14.0
     }
 
-    pub fn finish(self, title: &str) -> String {
+    pub(crate) fn finish(self, title: &str) -> String {
         format!(
             "<svg viewBox=\"0 0 {w} {h}\" width=\"{w}\" height=\"{h}\" font-family=\"Helvetica, Arial, sans-serif\" role=\"img\"><title>{t}</title><rect width=\"{w}\" height=\"{h}\" fill=\"#ffffff\"/>{body}</svg>",
             w = n(self.w),
@@ -256,7 +270,7 @@ fn points(pts: &[(f64, f64)]) -> String {
 }
 
 /// Vertical grid lines and tick labels of a [0, 1] rate axis.
-pub fn rate_axis_x(svg: &mut Svg, x0: f64, width: f64, top: f64, bottom: f64) {
+pub(crate) fn rate_axis_x(svg: &mut Svg, x0: f64, width: f64, top: f64, bottom: f64) {
     for k in 0..=4 {
         let v = f64::from(k) / 4.0;
         let x = x0 + v * width;
@@ -266,7 +280,7 @@ pub fn rate_axis_x(svg: &mut Svg, x0: f64, width: f64, top: f64, bottom: f64) {
 }
 
 /// Horizontal grid lines and tick labels of a [0, 1] rate axis.
-pub fn rate_axis_y(svg: &mut Svg, y0: f64, height: f64, left: f64, right: f64) {
+pub(crate) fn rate_axis_y(svg: &mut Svg, y0: f64, height: f64, left: f64, right: f64) {
     for k in 0..=4 {
         let v = f64::from(k) / 4.0;
         let y = y0 + height - v * height;

@@ -5,7 +5,7 @@ use super::{COLLISION_COLOR, Plot, PlotInput, SUCCESS_COLOR, Svg, TIMEOUT_COLOR,
 use crate::report::tables::tiers_label;
 use crate::scenario::ScenarioKind;
 
-pub fn plot(input: &PlotInput) -> Plot {
+pub(crate) fn plot(input: &PlotInput) -> Plot {
     let models = input.models();
     let scenarios: Vec<ScenarioKind> =
         ScenarioKind::ALL.into_iter().filter(|s| input.outcomes.iter().any(|r| r.scenario == *s)).collect();

@@ -5,8 +5,8 @@
 //! is no radar.
 
 use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Svg, text_width};
+use crate::export::f2;
 use crate::report::reference::{CEILING, FLOOR};
-use crate::report::table::f2;
 use crate::scenario::{ScenarioKind, Tier};
 
 struct Axis {
@@ -15,7 +15,7 @@ struct Axis {
     tiers: Vec<Tier>,
 }
 
-pub fn plot(input: &PlotInput) -> Option<Plot> {
+pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
     let lb = input.leaderboard;
     let mut axes: Vec<Axis> =
         lb.scenarios.iter().map(|&s| Axis { label: s.to_string(), scenario: s, tiers: lb.tiers.clone() }).collect();

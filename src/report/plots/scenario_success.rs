@@ -3,7 +3,7 @@
 //! vertical dashed lines in every panel.
 
 use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_x, text_width};
-use crate::report::table::{f2, with_ci};
+use crate::export::{f2, with_ci};
 use crate::report::tables::tiers_label;
 use crate::stats::Interval;
 
@@ -72,7 +72,7 @@ fn dot_whisker(name: &str, title: &str, caption: String, models: &[&str], colors
     Plot { name: name.into(), title: title.into(), caption, svg: svg.finish(title) }
 }
 
-pub fn by_scenario(input: &PlotInput) -> Plot {
+pub(crate) fn by_scenario(input: &PlotInput) -> Plot {
     let lb = input.leaderboard;
     let models = input.models();
     let colors: Vec<&str> = (0..models.len()).map(super::color).collect();
@@ -99,7 +99,7 @@ pub fn by_scenario(input: &PlotInput) -> Plot {
     )
 }
 
-pub fn ranked_mean(input: &PlotInput) -> Plot {
+pub(crate) fn ranked_mean(input: &PlotInput) -> Plot {
     let lb = input.leaderboard;
     let models = input.models();
     let colors: Vec<&str> = (0..models.len()).map(super::color).collect();

@@ -2,11 +2,11 @@
 //! scenario, with the expert and `always_proceed` levels of each tier.
 
 use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_y, text_width};
+use crate::export::with_ci;
 use crate::report::reference::{CEILING, FLOOR};
-use crate::report::table::with_ci;
 use crate::scenario::{ScenarioKind, Tier};
 
-pub fn plot(input: &PlotInput) -> Plot {
+pub(crate) fn plot(input: &PlotInput) -> Plot {
     let models = input.models();
     let scenarios: Vec<ScenarioKind> =
         ScenarioKind::ALL.into_iter().filter(|s| input.tiers.iter().any(|r| r.scenario == *s)).collect();

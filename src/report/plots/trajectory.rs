@@ -14,7 +14,7 @@ const EGO: &str = "#6a3d9a";
 const OTHER: &str = "#c0704a";
 const FOLLOWER: &str = "#7f7f7f";
 
-pub fn maneuver_color(name: &str) -> &'static str {
+pub(crate) fn maneuver_color(name: &str) -> &'static str {
     match name {
         "proceed" => "#2e7d32",
         "nudge_forward" => "#f9a825",
@@ -32,7 +32,7 @@ fn outcome_rank(o: Outcome) -> u8 {
 }
 
 /// The episodes drawn: one per (model, scenario) in the leaderboard scope.
-pub fn chosen_episodes<'a>(input: &PlotInput<'a>) -> Vec<&'a Loaded> {
+pub(crate) fn chosen_episodes<'a>(input: &PlotInput<'a>) -> Vec<&'a Loaded> {
     let lb = input.leaderboard;
     let mut out = Vec::new();
     for label in input.models() {
@@ -54,7 +54,7 @@ pub fn chosen_episodes<'a>(input: &PlotInput<'a>) -> Vec<&'a Loaded> {
     out
 }
 
-pub fn plots(input: &PlotInput) -> Vec<Plot> {
+pub(crate) fn plots(input: &PlotInput) -> Vec<Plot> {
     chosen_episodes(input).into_iter().map(|l| plot(&input.data.models[l.model].label, l)).collect()
 }
 
