@@ -24,9 +24,12 @@
 //! - [`eval`]: `eval`, a language model as the policy;
 //! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;
 //! - [`report`]: leaderboards, paired comparisons, plots, report.html;
+//! - [`redact`]: the one place secrets are scrubbed from everything the
+//!   process writes; [`atomic`]: whole-file writes (temp file + rename);
 //! - [`cli`]: one file per subcommand.
 
 pub mod action;
+pub mod atomic;
 pub mod baselines;
 pub mod cli;
 pub mod episode;
@@ -38,6 +41,7 @@ pub mod llm;
 pub mod observation;
 pub(crate) mod par;
 pub mod policy;
+pub mod redact;
 pub mod report;
 pub mod rng;
 pub mod rundir;

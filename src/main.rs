@@ -18,7 +18,7 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) if cli::is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("Error: {e:#}");
+            negotiator::redact::term::err_line(&format!("Error: {e:#}"));
             ExitCode::from(cli::exit_code_for(&e))
         }
     }

@@ -239,6 +239,8 @@ impl EvalArgs {
                 )));
             }
         };
+        // Before anything can echo it: userinfo in the URL is a credential.
+        crate::redact::register_url_userinfo(&base_url);
         let parsed_url = reqwest::Url::parse(&base_url).map_err(|e| usage(format!("--base-url '{base_url}': {e}")))?;
         if !matches!(parsed_url.scheme(), "http" | "https") {
             return Err(usage(format!("--base-url '{base_url}': expected an http or https URL")));
@@ -258,6 +260,9 @@ impl EvalArgs {
         });
         for kv in endpoint_headers.into_iter().map(Ok).chain(flag_headers) {
             let (k, v) = kv?;
+            // Header values are never recorded; scrub them wherever an
+            // endpoint echoes them back.
+            crate::redact::register_secret(&v);
             let name = HeaderName::from_bytes(k.as_bytes())
                 .map_err(|_| usage(format!("--header: invalid header name '{k}'")))?;
             let mut value =
@@ -360,15 +365,15 @@ impl EvalArgs {
             }
             Err(e) => return Err(e.into()),
         };
-        print!("{}", crate::eval::summary::render(&outcome.summary));
-        println!("results: {}", outcome.run_dir.display());
+        crate::redact::term::out(&crate::eval::summary::render(&outcome.summary));
+        crate::redact::term::out(&format!("results: {}\n", outcome.run_dir.display()));
         if outcome.missing == 0 {
             return Ok(ExitCode::SUCCESS);
         }
         // With --events json, stderr stays JSON: the finished event says it.
         if self.events != Events::Json {
             let why = outcome.stop.map_or_else(|| "infrastructure errors".to_string(), |s| s.to_string());
-            eprintln!(
+            crate::redact::eline!(
                 "{} episode(s) missing ({why}); they are excluded from the scores above. Re-run the same command to resume them.",
                 outcome.missing
             );
@@ -381,7 +386,11 @@ impl EvalArgs {
 fn api_key(var: Option<&str>) -> anyhow::Result<Option<String>> {
     let Some(var) = var else { return Ok(None) };
     match std::env::var(var) {
-        Ok(v) if !v.trim().is_empty() => Ok(Some(v.trim().to_string())),
+        Ok(v) if !v.trim().is_empty() => {
+            // Before anything can echo it back.
+            crate::redact::register_secret(v.trim());
+            Ok(Some(v.trim().to_string()))
+        }
         _ => Err(usage(format!(
             "the API key variable ${var} is not set (export {var}=... or choose another with --api-key-var)"
         ))),

@@ -97,11 +97,11 @@ impl ReportArgs {
             }
             out.flush()?;
             for w in &r.warnings {
-                eprintln!("warning: {w}");
+                crate::redact::eline!("warning: {w}");
             }
             let html = written.iter().find(|p| p.ends_with("report.html"));
             let size = html.and_then(|p| std::fs::metadata(p).ok()).map_or(0, |m| m.len());
-            eprintln!(
+            crate::redact::eline!(
                 "wrote {} files to {} (report.html {:.1} MB, {} transcripts) in {:.2} s",
                 written.len(),
                 self.out.display(),

@@ -61,7 +61,7 @@ impl EvalOptions {
     fn endpoint(&self) -> Endpoint {
         Endpoint {
             api_key_env: self.api_key_var.clone(),
-            base_url: self.client.base_url.clone(),
+            base_url: crate::redact::url_without_userinfo(&self.client.base_url),
             header_names: self.client.headers.keys().map(|k| k.as_str().to_string()).collect(),
         }
     }

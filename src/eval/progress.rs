@@ -127,8 +127,8 @@ impl Reporter for Bar {
         }
         for line in human_line(event) {
             match &self.bar {
-                Some((bar, _)) => bar.suspend(|| eprintln!("{line}")),
-                None => eprintln!("{line}"),
+                Some((bar, _)) => bar.suspend(|| crate::redact::eline!("{line}")),
+                None => crate::redact::eline!("{line}"),
             }
         }
         if let Event::Planned { to_run, .. } = event {
@@ -172,7 +172,7 @@ impl Reporter for Lines {
             t.stop();
         }
         for line in human_line(event) {
-            eprintln!("{line}");
+            crate::redact::eline!("{line}");
         }
         if let Event::Planned { to_run, .. } = event {
             let (live, total, started) = (self.live.clone(), *to_run as u64, Instant::now());
@@ -184,7 +184,7 @@ impl Reporter for Lines {
                 } else {
                     format!("{:.0}s", elapsed / done as f64 * total.saturating_sub(done) as f64)
                 };
-                eprintln!("[{elapsed:.0}s] {done}/{total} episodes | {} | ETA {eta}", status(&live));
+                crate::redact::eline!("[{elapsed:.0}s] {done}/{total} episodes | {} | ETA {eta}", status(&live));
             }));
         }
     }
@@ -220,7 +220,8 @@ impl<W: Write> JsonLines<W> {
 
 impl<W: Write> Reporter for JsonLines<W> {
     fn event(&mut self, event: &Event) {
-        let mut line = serde_json::to_string(event).expect("events serialise");
+        // Events carry endpoint messages, which may echo the key.
+        let mut line = crate::redact::scrub(&serde_json::to_string(event).expect("events serialise")).into_owned();
         line.push('\n');
         // One write per line, so lines never interleave; a closed stderr
         // must not stop the run.

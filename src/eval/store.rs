@@ -130,6 +130,11 @@ impl Writer {
                             (errors.as_mut().expect("just opened"), &errors_path, line)
                         }
                     };
+                    // The choke point for both files: raw replies and error
+                    // bodies come from the endpoint and may echo the key.
+                    if let std::borrow::Cow::Owned(clean) = crate::redact::scrub(&line) {
+                        line = clean;
+                    }
                     line.push('\n');
                     // One write of the whole line; File is unbuffered, so the
                     // line is with the OS when this returns.

@@ -363,13 +363,15 @@ impl Report {
     }
 }
 
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
-    std::fs::write(path, bytes).map_err(|source| ReportError::Io { path: path.display().to_string(), source })
-}
-
-/// Write every output into `out`; returns the files written. Earlier
-/// `*.svg` files in `out/plots` are removed first (the directory is the
-/// report's), so no stale figure survives.
+/// Write every output into `out`; returns the files written.
+///
+/// All or nothing, as far as a file system allows: every file is first
+/// written whole to a temporary name beside its target (scrubbed of
+/// secrets) and fsynced; only when all of them are written are they renamed
+/// into place, and only then are stale `plots/*.svg` from an earlier report
+/// removed. A full disk or a kill while writing leaves the previous report
+/// untouched and no temporary file behind; the error names the file that
+/// could not be written.
 pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
     let io = |path: &Path| {
         let path = path.display().to_string();
@@ -377,31 +379,33 @@ pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
     };
     let plots_dir = out.join("plots");
     std::fs::create_dir_all(&plots_dir).map_err(io(&plots_dir))?;
-    for entry in std::fs::read_dir(&plots_dir).map_err(io(&plots_dir))?.flatten() {
-        let p = entry.path();
-        if p.extension().is_some_and(|e| e == "svg") {
-            std::fs::remove_file(&p).map_err(io(&p))?;
-        }
-    }
-    let mut written = Vec::new();
-    let mut put = |path: PathBuf, bytes: &[u8]| -> Result<(), ReportError> {
-        write_file(&path, bytes)?;
-        written.push(path);
-        Ok(())
-    };
     let r = &built.report;
-    put(out.join("report.html"), html::render(r, &built.drill).as_bytes())?;
-    put(out.join("report.md"), r.markdown().as_bytes())?;
     let json = serde_json::to_string_pretty(r).map_err(|e| ReportError::Io {
         path: out.join("report.json").display().to_string(),
         source: std::io::Error::other(e),
     })?;
-    put(out.join("report.json"), format!("{json}\n").as_bytes())?;
-    for t in r.tables() {
-        put(out.join(format!("{}.csv", t.name)), CsvExporter.render(&t).as_bytes())?;
+    let mut files: Vec<(PathBuf, String)> = vec![
+        (out.join("report.html"), html::render(r, &built.drill)),
+        (out.join("report.md"), r.markdown()),
+        (out.join("report.json"), format!("{json}\n")),
+    ];
+    files.extend(r.tables().into_iter().map(|t| (out.join(format!("{}.csv", t.name)), CsvExporter.render(&t))));
+    files.extend(r.plots.iter().map(|p| (plots_dir.join(format!("{}.svg", p.name)), p.file_text())));
+    let mut staged = Vec::with_capacity(files.len());
+    for (path, text) in &files {
+        staged.push(crate::atomic::stage(path, &crate::redact::scrub_bytes(text.as_bytes())).map_err(io(path))?);
     }
-    for p in &r.plots {
-        put(plots_dir.join(format!("{}.svg", p.name)), p.file_text().as_bytes())?;
+    let mut written = Vec::with_capacity(staged.len());
+    for s in staged {
+        let target = s.target.clone();
+        s.commit().map_err(io(&target))?;
+        written.push(target);
+    }
+    for entry in std::fs::read_dir(&plots_dir).map_err(io(&plots_dir))?.flatten() {
+        let p = entry.path();
+        if p.extension().is_some_and(|e| e == "svg") && !written.contains(&p) {
+            std::fs::remove_file(&p).map_err(io(&p))?;
+        }
     }
     Ok(written)
 }

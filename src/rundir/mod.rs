@@ -348,11 +348,12 @@ pub fn write_run_info(dir: &Path, info: &RunInfo) -> Result<(), RunDirError> {
     write_atomic(&dir.join(RUN_JSON), &serde_json::to_vec_pretty(info).expect("run info serialises"))
 }
 
+/// Write a file atomically (temporary file in the same directory, fsync,
+/// rename), scrubbed of secrets. On failure the temporary file is removed
+/// and the error names the file that could not be written.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunDirError> {
-    let io = |p: &Path, source| RunDirError::Io { path: p.display().to_string(), source };
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, bytes).map_err(|e| io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io(path, e))
+    crate::atomic::write(path, &crate::redact::scrub_bytes(bytes))
+        .map_err(|source| RunDirError::Io { path: path.display().to_string(), source })
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 
 mod core;
 mod eval;
+mod faults;
 mod report;
 mod run_v0;
 mod serve;

@@ -1,0 +1,204 @@
+//! `eval` and `report` against endpoints and machines that misbehave the way
+//! real ones do: keys echoed back, duplicate work, overflowing contexts,
+//! unreachable hosts, oversized or malformed replies, closed pipes. Each
+//! test drives the binary against a mock server started inside the test.
+
+use crate::serve::{Server, negotiator, scratch};
+use serde_json::{Value, json};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
+
+/// What a mock sees of one chat request.
+pub struct Request {
+    /// 0-based index of the request, in arrival order.
+    pub index: usize,
+    pub headers: axum::http::HeaderMap,
+    pub body: Value,
+}
+
+pub type Handler = Arc<dyn Fn(&Request) -> axum::response::Response + Send + Sync>;
+
+/// An axum server on a background thread answering
+/// `POST /v1/chat/completions` with `handler`; returns its base URL.
+pub fn mock(handler: Handler) -> String {
+    use axum::routing::post;
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        rt.block_on(async move {
+            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            tx.send(listener.local_addr().unwrap().port()).unwrap();
+            let count = Arc::new(AtomicUsize::new(0));
+            let app = axum::Router::new().route(
+                "/v1/chat/completions",
+                post(move |headers: axum::http::HeaderMap, body: axum::body::Bytes| {
+                    let index = count.fetch_add(1, SeqCst);
+                    let handler = handler.clone();
+                    async move {
+                        let body = serde_json::from_slice(&body).unwrap_or(Value::Null);
+                        handler(&Request { index, headers, body })
+                    }
+                }),
+            );
+            axum::serve(listener, app).await.unwrap();
+        });
+    });
+    format!("http://127.0.0.1:{}/v1", rx.recv().unwrap())
+}
+
+pub fn respond(status: u16, body: Value) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    (axum::http::StatusCode::from_u16(status).unwrap(), axum::Json(body)).into_response()
+}
+
+/// A 200 whose content is `content`.
+pub fn reply(content: &str) -> axum::response::Response {
+    respond(200, json!({"choices": [{"message": {"role": "assistant", "content": content}, "finish_reason": "stop"}]}))
+}
+
+pub const STOP: &str = r#"{"maneuver":"stop","acceleration":0}"#;
+
+/// `eval --base-url URL --model scripted --output OUT --run-name run` with
+/// fast retries; `--quiet` is left to the caller.
+pub fn eval(base_url: &str, out: &Path, args: &[&str]) -> Command {
+    let mut c = negotiator();
+    c.args(["eval", "--base-url", base_url, "--model", "scripted", "--output"])
+        .arg(out)
+        .args(["--run-name", "run", "--backoff-base-ms", "10", "--backoff-max", "0.05", "--progress-interval", "0.2"])
+        .args(args);
+    c
+}
+
+pub fn run(mut c: Command) -> Output {
+    let out = c.output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked") && !err.contains("RUST_BACKTRACE"), "panic: {err}");
+    out
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Every file under `dir`, recursively, as lossy text.
+fn every_file(dir: &Path) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((p.display().to_string(), String::from_utf8_lossy(&std::fs::read(&p).unwrap()).into_owned()));
+            }
+        }
+    }
+    out
+}
+
+fn assert_nowhere(needles: &[&str], dir: &Path, streams: &[&str]) {
+    for (path, text) in every_file(dir) {
+        for n in needles {
+            assert!(!text.contains(n), "{n:?} leaked into {path}");
+        }
+    }
+    for s in streams {
+        for n in needles {
+            assert!(!s.contains(n), "{n:?} leaked to the terminal: {s}");
+        }
+    }
+}
+
+pub fn rollout_lines(out: &Path) -> Vec<Value> {
+    std::fs::read_to_string(out.join("run/rollouts.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+pub fn run_json(out: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("run/run.json")).unwrap()).unwrap()
+}
+
+// ---------------------------------------------------------------------
+// Secrets (issue items 1-3)
+
+const KEY: &str = "sk-proj-Zq7u2LkP9xW4vB1nM6tR3yH8cJ5fD0gA";
+const PARTIAL: &str = "sk-proj-****************************D0gA";
+
+#[test]
+fn a_401_echoing_the_key_never_shows_it_on_the_terminal() {
+    let url = mock(Arc::new(|r: &Request| {
+        let sent = r.headers.get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("").to_string();
+        respond(
+            401,
+            json!({"error": {"message": format!("Incorrect API key provided: {PARTIAL}. You sent {sent} (full: {KEY})")}}),
+        )
+    }));
+    let out = scratch("secret-401");
+    let mut c = eval(&url, &out, &["-n", "2", "--api-key-var", "NEGOTIATOR_LEAK_KEY"]);
+    c.env("NEGOTIATOR_LEAK_KEY", KEY);
+    let r = run(c);
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    let err = stderr(&r);
+    assert!(err.contains("401") && err.contains("Incorrect API key provided"), "{err}");
+    assert_nowhere(&[KEY, PARTIAL, "sk-proj-Zq7u", "D0gA"], &out, &[&err, &stdout(&r)]);
+}
+
+#[test]
+fn key_echoes_in_errors_replies_and_url_userinfo_reach_no_file_and_no_terminal() {
+    // Request 0: a 500 echoing the key; 1: a 200 carrying an error object
+    // echoing it (retries run out: errors.jsonl). Then replies whose content
+    // echoes the key, a bearer token and the URL's password.
+    let url = mock(Arc::new(|r: &Request| match r.index {
+        0 => respond(500, json!({"error": {"message": format!("internal error for key {KEY}")}})),
+        1 => respond(200, json!({"error": {"message": format!("upstream rejected Bearer {KEY}")}})),
+        _ => reply(&format!("{STOP} my key is {KEY}, header Bearer tok-Zq7u2LkP, url http://bob:hunter2-pw@x/v1")),
+    }));
+    let with_userinfo = url.replace("http://", "http://bob:hunter2-pw@");
+    let out = scratch("secret-files");
+    let mut c = eval(
+        &with_userinfo,
+        &out,
+        &[
+            "--scenario",
+            "yield_standoff",
+            "-n",
+            "2",
+            "-c",
+            "1",
+            "--max-retries",
+            "1",
+            "--api-key-var",
+            "NEGOTIATOR_LEAK_KEY",
+        ],
+    );
+    c.env("NEGOTIATOR_LEAK_KEY", KEY);
+    let r = run(c);
+    let errors = std::fs::read_to_string(out.join("run/errors.jsonl")).unwrap();
+    assert!(errors.contains("internal error for key") || errors.contains("upstream rejected"), "{errors}");
+    assert_eq!(rollout_lines(&out).len(), 1, "{}", stderr(&r));
+    let run_json = run_json(&out);
+    assert!(run_json["last_invocation"]["endpoint"]["base_url"].as_str().unwrap().starts_with("http://127.0.0.1:"));
+    // The report of that directory leaks nothing either.
+    let report = negotiator()
+        .arg("report")
+        .arg(out.join("run"))
+        .arg("--out")
+        .arg(out.join("report"))
+        .args(["--resamples", "10000", "--tiers", "all"])
+        .output()
+        .unwrap();
+    assert!(out.join("report/report.html").exists(), "{}", String::from_utf8_lossy(&report.stderr));
+    let streams = [stderr(&r), stdout(&r), stderr(&report), stdout(&report)];
+    let streams: Vec<&str> = streams.iter().map(String::as_str).collect();
+    assert_nowhere(&[KEY, "sk-proj-Zq7u", "tok-Zq7u2LkP", "hunter2-pw"], &out, &streams);
+}
