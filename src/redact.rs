@@ -113,10 +113,11 @@ pub fn scrub_with<'a>(text: &'a str, secrets: &[String]) -> Cow<'a, str> {
     if contains_ignore_case(&out, "bearer ") {
         out = Cow::Owned(mask_bearer(&out));
     }
-    if out.contains("://") && out.contains('@') {
-        if let Cow::Owned(o) = strip_userinfo(&out) {
-            out = Cow::Owned(o);
-        }
+    if out.contains("://")
+        && out.contains('@')
+        && let Cow::Owned(o) = strip_userinfo(&out)
+    {
+        out = Cow::Owned(o);
     }
     out
 }

@@ -38,6 +38,13 @@ impl BaselinesArgs {
         if self.episodes == 0 {
             return Err(super::usage("-n/--episodes: must be at least 1"));
         }
+        if self.episodes as u64 > super::MAX_EPISODES {
+            return Err(super::usage(format!(
+                "-n/--episodes: at most {} episodes per cell, got {}",
+                super::MAX_EPISODES,
+                self.episodes
+            )));
+        }
         let spec = GridSpec {
             scenarios: parse_list(&self.scenario, &ScenarioKind::ALL, "--scenario")?,
             tiers: parse_list(&self.tier, &Tier::ALL, "--tier")?,

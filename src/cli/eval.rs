@@ -179,6 +179,7 @@ impl EvalArgs {
             history,
             prompt_hash: fnv1a64_hex(crate::eval::prompt::SYSTEM_PROMPT),
             scenarios_hash: scenarios_hash(&scenario_set),
+            endpoint: crate::redact::url_without_userinfo(&target.base_url),
         };
         let run_name = self.run_name(&config)?;
         let retry = RetryPolicy {
@@ -217,8 +218,21 @@ impl EvalArgs {
             }
             None => EndpointsFile::builtin(),
         };
-        let alias =
-            file.models.get(&self.model).filter(|_| self.endpoint.is_none() && self.base_url.is_none()).cloned();
+        // --model may be an alias that names an endpoint and a model id. It
+        // is applied (id, sampling, endpoint) and combines with --base-url
+        // (a mirror of its endpoint) or with --endpoint naming its own
+        // endpoint; another --endpoint is refused rather than silently
+        // sending the alias name as a model id.
+        let alias = file.models.get(&self.model);
+        if let (Some(a), Some(e)) = (alias, &self.endpoint)
+            && a.endpoint != *e
+        {
+            return Err(usage(format!(
+                "--model '{}' is an alias for '{}' on endpoint '{}', not on --endpoint {e}; give --model {} --endpoint {e} to use that id there",
+                self.model, a.id, a.endpoint, a.id
+            )));
+        }
+        let alias = alias.cloned();
         let model = alias.as_ref().map_or(self.model.clone(), |a| a.id.clone());
         if model.trim().is_empty() {
             return Err(usage("--model: empty model name"));
@@ -325,6 +339,19 @@ impl EvalArgs {
         }
         if self.rollouts == 0 {
             return Err(usage("-r: must be at least 1"));
+        }
+        let episodes = (scenarios.len() as u64 * tiers.len() as u64)
+            .checked_mul(self.seeds)
+            .and_then(|x| x.checked_mul(u64::from(self.rollouts)));
+        if episodes.is_none_or(|e| e > super::MAX_EPISODES) {
+            return Err(usage(format!(
+                "-n {} x -r {} over {} scenario(s) and {} tier(s) selects more than {} episodes; split it with --seed and --shard",
+                self.seeds,
+                self.rollouts,
+                scenarios.len(),
+                tiers.len(),
+                super::MAX_EPISODES
+            )));
         }
         Ok(Selection { base_seed: self.seed, rollouts: self.rollouts, scenarios, seeds: self.seeds, shard, tiers })
     }

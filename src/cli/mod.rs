@@ -91,14 +91,30 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }
 
-/// `all` or a comma-separated list, for --scenario / --tier.
+/// `all` or a comma-separated list, for --scenario / --tier. An item
+/// listed twice is refused: it would play (and count) every episode twice.
 pub fn parse_list<T>(value: &str, all: &[T], flag: &str) -> anyhow::Result<Vec<T>>
 where
-    T: Clone + std::str::FromStr,
+    T: Clone + PartialEq + std::str::FromStr,
     T::Err: std::fmt::Display,
 {
     if value.trim() == "all" {
         return Ok(all.to_vec());
     }
-    value.split(',').map(|v| v.trim().parse::<T>().map_err(|e| usage(format!("{flag}: {e}")))).collect()
+    let mut items: Vec<T> = Vec::new();
+    for v in value.split(',') {
+        let item = v.trim().parse::<T>().map_err(|e| usage(format!("{flag}: {e}")))?;
+        if items.contains(&item) {
+            return Err(usage(format!("{flag}: '{}' is listed twice", v.trim())));
+        }
+        items.push(item);
+    }
+    Ok(items)
 }
+
+/// Most episodes one `eval` invocation or one `baselines` cell may select.
+/// Far above any real benchmark run (the paper's protocol is 600), and low
+/// enough that the selection, its bookkeeping and the summary fit in memory
+/// on any machine: a larger -n is a typo, refused before anything is
+/// allocated.
+pub const MAX_EPISODES: u64 = 1_000_000;

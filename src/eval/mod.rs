@@ -198,18 +198,31 @@ struct Prepared {
     prev_totals: Totals,
     ctx: Arc<Ctx>,
     writer: Writer,
+    /// The exclusive lock on the run directory, released when dropped.
+    lock: std::fs::File,
 }
 
 /// Open (or create) the run directory, resume what it holds, refuse a
 /// changed configuration, and record the invocation as running.
-fn prepare(options: EvalOptions, counters: Arc<Counters>, reporter: &mut dyn Reporter) -> Result<Prepared, EvalError> {
+fn prepare(
+    mut options: EvalOptions,
+    counters: Arc<Counters>,
+    reporter: &mut dyn Reporter,
+) -> Result<Prepared, EvalError> {
     let started = Instant::now();
     let started_at = now_rfc3339();
     let dir = options.run_dir.clone();
     std::fs::create_dir_all(&dir).map_err(|source| StoreError::Io { path: dir.display().to_string(), source })?;
 
+    // Held until the run is finalized (and released by the OS on a crash).
+    let lock = store::lock_dir(&dir)?;
     let previous = rundir::read_run_info(&dir)?;
     let loaded = store::load_rollouts(&dir.join(rundir::ROLLOUTS))?;
+    // A run made before the endpoint was part of a run's identity resumes
+    // under its recorded identity (its hash stays the one its lines carry).
+    if previous.as_ref().is_some_and(|p| p.config.endpoint.is_empty()) {
+        options.config.endpoint.clear();
+    }
     store::check_config(&dir, previous.as_ref(), &loaded, &options.config)?;
     let run_dir = dir.display().to_string();
     if previous.is_some() || !loaded.finished.is_empty() || loaded.torn_bytes > 0 || loaded.bad_lines > 0 {
@@ -255,6 +268,7 @@ fn prepare(options: EvalOptions, counters: Arc<Counters>, reporter: &mut dyn Rep
         prev_totals,
         ctx,
         writer,
+        lock,
     })
 }
 
@@ -454,7 +468,19 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
 /// run.json, report the end, then either return the error that stopped the
 /// run or write the summary of every finished episode of the selection.
 fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<RunOutcome, EvalError> {
-    let Prepared { started, dir, selection, finished, mut info, mut invocation, prev_totals, ctx, writer, .. } = run;
+    let Prepared {
+        started,
+        dir,
+        selection,
+        finished,
+        mut info,
+        mut invocation,
+        prev_totals,
+        ctx,
+        writer,
+        lock: _lock,
+        ..
+    } = run;
     let write_result = writer.finish();
     invocation.retries = ctx.counters.retries.load(Relaxed);
     invocation.turns = ctx.counters.turns.load(Relaxed);

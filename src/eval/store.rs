@@ -7,8 +7,8 @@
 //! line and its newline by a single writer thread, so a killed process
 //! leaves at worst one torn last line, which the next invocation cuts off
 //! before appending. Lines reach the operating system as each episode
-//! finishes (a `kill -9` loses nothing written); the file is fsynced when the
-//! run ends.
+//! finishes (a `kill -9` loses nothing written); the file is fsynced at most
+//! [`SYNC_INTERVAL`] after a line was written, and when the run ends.
 
 use crate::rundir::lines::read_rollouts;
 use crate::rundir::record::{EpisodeKey, EpisodeScalars};
@@ -17,6 +17,13 @@ use std::collections::HashMap;
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// The lock file: an exclusive OS lock on it marks the directory as in use.
+pub const LOCK: &str = ".lock";
+/// Longest time a finished episode's line stays in the OS cache before it
+/// is fsynced: a power cut loses at most this window (and leaves at worst a
+/// torn last line, cut off by the next invocation).
+pub const SYNC_INTERVAL: std::time::Duration = std::time::Duration::from_secs(1);
 
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
@@ -27,6 +34,10 @@ pub enum StoreError {
          restore the original flags to resume it, or choose another --run-name / --output for a new run"
     )]
     ConfigChanged { dir: String, changes: String },
+    #[error(
+        "another eval is running in {dir} (it holds {dir}/{LOCK}); wait for it to finish, or choose another --run-name / --output"
+    )]
+    Locked { dir: String },
     #[error("{path}: unreadable run.json ({message}); move it away to start over")]
     BadRunJson { path: String, message: String },
 }
@@ -79,6 +90,20 @@ pub fn load_rollouts(path: &Path) -> Result<Loaded, StoreError> {
     })
 }
 
+/// Take the run directory for this process: an exclusive OS lock on
+/// `DIR/.lock`, held as long as the returned file is open. The operating
+/// system releases it when the process ends, by a crash or `kill -9` too, so
+/// a stale lock never needs cleaning up.
+pub fn lock_dir(dir: &Path) -> Result<File, StoreError> {
+    let path = dir.join(LOCK);
+    let file = OpenOptions::new().create(true).truncate(false).write(true).open(&path).map_err(io(&path))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(StoreError::Locked { dir: dir.display().to_string() }),
+        Err(std::fs::TryLockError::Error(e)) => Err(io(&path)(e)),
+    }
+}
+
 /// Refuse a directory whose run was started with another configuration.
 pub fn check_config(
     dir: &Path,
@@ -103,51 +128,85 @@ pub enum WriteMsg {
     InfraError(String),
 }
 
-/// The single writer: a thread that appends complete lines as they come.
+/// The single writer: a thread that appends complete lines as they come,
+/// and fsyncs `rollouts.jsonl` no later than `sync_interval` after a line
+/// was written (and once more at the end).
 pub struct Writer {
-    pub tx: tokio::sync::mpsc::UnboundedSender<WriteMsg>,
+    pub tx: std::sync::mpsc::Sender<WriteMsg>,
+    /// fsyncs of `rollouts.jsonl` done so far.
+    pub syncs: std::sync::Arc<std::sync::atomic::AtomicU64>,
     handle: std::thread::JoinHandle<Result<(), StoreError>>,
 }
 
 impl Writer {
     pub fn start(dir: &Path) -> Result<Writer, StoreError> {
+        Writer::start_with(dir, SYNC_INTERVAL)
+    }
+
+    pub fn start_with(dir: &Path, sync_interval: std::time::Duration) -> Result<Writer, StoreError> {
+        use std::sync::atomic::Ordering::Relaxed;
+        use std::sync::mpsc::RecvTimeoutError;
+        use std::time::Instant;
         let rollouts_path = dir.join(ROLLOUTS);
         let errors_path = dir.join(ERRORS);
         let open = |p: &PathBuf| OpenOptions::new().create(true).append(true).open(p).map_err(io(p));
         let mut rollouts = open(&rollouts_path)?;
-        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<WriteMsg>();
+        let (tx, rx) = std::sync::mpsc::channel::<WriteMsg>();
+        let syncs = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let sync_count = syncs.clone();
         let handle = std::thread::Builder::new()
             .name("rollout-writer".into())
             .spawn(move || {
                 let mut errors: Option<File> = None;
-                while let Some(msg) = rx.blocking_recv() {
-                    let (file, path, mut line) = match msg {
-                        WriteMsg::Rollout(line) => (&mut rollouts, &rollouts_path, line),
-                        WriteMsg::InfraError(line) => {
-                            if errors.is_none() {
-                                errors = Some(open(&errors_path)?);
+                // When the oldest unsynced rollout line was written.
+                let mut dirty_since: Option<Instant> = None;
+                loop {
+                    let wait = dirty_since
+                        .map_or(std::time::Duration::from_secs(3600), |t| sync_interval.saturating_sub(t.elapsed()));
+                    match rx.recv_timeout(wait) {
+                        Ok(msg) => {
+                            let is_rollout = matches!(msg, WriteMsg::Rollout(_));
+                            let (file, path, mut line) = match msg {
+                                WriteMsg::Rollout(line) => (&mut rollouts, &rollouts_path, line),
+                                WriteMsg::InfraError(line) => {
+                                    if errors.is_none() {
+                                        errors = Some(open(&errors_path)?);
+                                    }
+                                    (errors.as_mut().expect("just opened"), &errors_path, line)
+                                }
+                            };
+                            // The choke point for both files: raw replies and
+                            // error bodies come from the endpoint and may echo
+                            // the key.
+                            if let std::borrow::Cow::Owned(clean) = crate::redact::scrub(&line) {
+                                line = clean;
                             }
-                            (errors.as_mut().expect("just opened"), &errors_path, line)
+                            line.push('\n');
+                            // One write of the whole line; File is unbuffered,
+                            // so the line is with the OS when this returns.
+                            file.write_all(line.as_bytes()).map_err(io(path))?;
+                            if is_rollout && dirty_since.is_none() {
+                                dirty_since = Some(Instant::now());
+                            }
                         }
-                    };
-                    // The choke point for both files: raw replies and error
-                    // bodies come from the endpoint and may echo the key.
-                    if let std::borrow::Cow::Owned(clean) = crate::redact::scrub(&line) {
-                        line = clean;
+                        Err(RecvTimeoutError::Timeout) => {}
+                        Err(RecvTimeoutError::Disconnected) => break,
                     }
-                    line.push('\n');
-                    // One write of the whole line; File is unbuffered, so the
-                    // line is with the OS when this returns.
-                    file.write_all(line.as_bytes()).map_err(io(path))?;
+                    if dirty_since.is_some_and(|t| t.elapsed() >= sync_interval) {
+                        rollouts.sync_data().map_err(io(&rollouts_path))?;
+                        sync_count.fetch_add(1, Relaxed);
+                        dirty_since = None;
+                    }
                 }
                 rollouts.sync_all().map_err(io(&rollouts_path))?;
+                sync_count.fetch_add(1, Relaxed);
                 if let Some(e) = errors {
                     e.sync_all().map_err(io(&errors_path))?;
                 }
                 Ok(())
             })
             .map_err(io(dir))?;
-        Ok(Writer { tx, handle })
+        Ok(Writer { tx, syncs, handle })
     }
 
     /// Close the channel and wait for every line to be written.
@@ -224,6 +283,43 @@ mod tests {
     }
 
     #[test]
+    fn rollout_lines_are_fsynced_within_the_interval_not_only_at_the_end() {
+        let dir = tempdir("sync");
+        let w = Writer::start_with(&dir, std::time::Duration::ZERO).unwrap();
+        for seed in 0..3 {
+            w.tx.send(WriteMsg::Rollout(line(seed, 0).trim_end().to_string())).unwrap();
+        }
+        // Wait (bounded) for the writer to take all three: with a zero
+        // interval each line is synced as it is written.
+        for _ in 0..500 {
+            if w.syncs.load(std::sync::atomic::Ordering::Relaxed) >= 3 {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        assert!(w.syncs.load(std::sync::atomic::Ordering::Relaxed) >= 3, "synced only at the end");
+        w.finish().unwrap();
+        // A long interval syncs once, at the end.
+        let w = Writer::start_with(&dir, std::time::Duration::from_secs(3600)).unwrap();
+        w.tx.send(WriteMsg::Rollout(line(3, 0).trim_end().to_string())).unwrap();
+        let syncs = w.syncs.clone();
+        w.finish().unwrap();
+        assert_eq!(syncs.load(std::sync::atomic::Ordering::Relaxed), 1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_locked_directory_is_refused_until_the_holder_lets_go() {
+        let dir = tempdir("lock");
+        let held = lock_dir(&dir).unwrap();
+        let err = lock_dir(&dir).unwrap_err().to_string();
+        assert!(err.starts_with("another eval is running in"), "{err}");
+        drop(held);
+        assert!(lock_dir(&dir).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn bad_and_duplicate_lines_are_counted_not_fatal() {
         let dir = tempdir("bad");
         let path = dir.join(ROLLOUTS);
@@ -244,6 +340,7 @@ mod tests {
             history: HistoryWindow::Full,
             prompt_hash: "p".into(),
             scenarios_hash: "s".into(),
+            endpoint: String::new(),
         };
         let info = RunInfo {
             schema_version: crate::rundir::SCHEMA_VERSION,

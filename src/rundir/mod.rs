@@ -136,11 +136,11 @@ impl std::fmt::Display for Shard {
 }
 
 /// What makes two invocations the same experiment, so that they may share a
-/// run directory: everything that can change how an episode plays out.
+/// run directory: everything that can change how an episode plays out, and
+/// the server that played it.
 /// Deliberately left out (recorded in run.json, free to change on resume):
 /// the selection of episodes (scenarios, tiers, n, r, base seed, shard;
-/// episodes are keyed, so a resume may extend or merge), the base URL and
-/// headers (transport: a mirror of the same model may finish a run), and
+/// episodes are keyed, so a resume may extend or merge), headers, and
 /// operational knobs (concurrency, retries, timeouts, token budget).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunConfig {
@@ -152,6 +152,11 @@ pub struct RunConfig {
     pub prompt_hash: String,
     /// Hash of the scenario parameters in force (built-ins or overrides).
     pub scenarios_hash: String,
+    /// The endpoint's identity: its base URL without userinfo. Two servers
+    /// answering to one model id are two experiments. Absent in runs made
+    /// before it existed (their hash is unchanged).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub endpoint: String,
 }
 
 impl RunConfig {
@@ -369,6 +374,7 @@ mod tests {
             history: HistoryWindow::Full,
             prompt_hash: "p".into(),
             scenarios_hash: "s".into(),
+            endpoint: "http://127.0.0.1:1/v1".into(),
         }
     }
 

@@ -202,3 +202,206 @@ fn key_echoes_in_errors_replies_and_url_userinfo_reach_no_file_and_no_terminal()
     let streams: Vec<&str> = streams.iter().map(String::as_str).collect();
     assert_nowhere(&[KEY, "sk-proj-Zq7u", "tok-Zq7u2LkP", "hunter2-pw"], &out, &streams);
 }
+
+// ---------------------------------------------------------------------
+// Results integrity (items 4, 5) and bounded inputs (item 11)
+
+#[test]
+fn a_repeated_scenario_or_tier_is_a_usage_error_not_a_double_count() {
+    for (flag, value) in [("--tier", "1,1"), ("--scenario", "yield_standoff,yield_standoff"), ("--tier", "1, 2,1")] {
+        let out = scratch("repeat");
+        let r = run(eval("http://127.0.0.1:9/v1", &out, &[flag, value, "-n", "3"]));
+        assert_eq!(r.status.code(), Some(2), "{flag} {value}: {}", stderr(&r));
+        let err = stderr(&r);
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(flag) && err.contains("twice"), "{err}");
+        assert!(!out.join("run").exists(), "nothing may be created for a refused selection");
+    }
+}
+
+#[test]
+fn huge_episode_counts_are_refused_without_a_panic() {
+    let out = scratch("huge");
+    for args in [&["-n", "100000000"][..], &["-n", "18446744073709551615", "-r", "4294967295"]] {
+        let r = run(eval("http://127.0.0.1:9/v1", &out, args));
+        assert_eq!(r.status.code(), Some(2), "{}", stderr(&r));
+        assert!(stderr(&r).contains("1000000 episodes"), "{}", stderr(&r));
+    }
+    let r = run({
+        let mut c = negotiator();
+        c.args(["baselines", "-n", "18446744073709551615"]);
+        c
+    });
+    assert_eq!(r.status.code(), Some(2), "{}", stderr(&r));
+    assert!(stderr(&r).contains("-n/--episodes: at most 1000000"), "{}", stderr(&r));
+}
+
+#[test]
+fn a_second_eval_on_a_busy_run_directory_is_refused_with_one_line() {
+    let server = Server::start(&["--policy", "expert", "--latency-ms", "20"]);
+    let out = scratch("locked");
+    let args = ["--scenario", "yield_standoff", "-n", "40", "-c", "1", "--quiet"];
+    let mut first = eval(&server.base_url(), &out, &args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    // run.json is written once the lock is held.
+    let mut waited = 0;
+    while !out.join("run/run.json").exists() {
+        assert!(first.try_wait().unwrap().is_none(), "the first eval ended early");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+        waited += 1;
+        assert!(waited < 3000, "the first eval never started");
+    }
+    let second = run(eval(&server.base_url(), &out, &args));
+    let still_running = first.try_wait().unwrap().is_none();
+    first.kill().unwrap();
+    first.wait().unwrap();
+    assert!(still_running, "the first eval finished before the second started: nothing was tested");
+    assert_eq!(second.status.code(), Some(4), "{}", stderr(&second));
+    let err = stderr(&second);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("another eval is running"), "{err}");
+    // The lock dies with its holder (killed above): a resume runs.
+    let r = run(eval(&server.base_url(), &out, &args));
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let lines = rollout_lines(&out);
+    let keys: std::collections::HashSet<u64> = lines.iter().map(|l| l["seed"].as_u64().unwrap()).collect();
+    assert_eq!((lines.len(), keys.len()), (40, 40));
+}
+
+// ---------------------------------------------------------------------
+// Run identity (item 17)
+
+#[test]
+fn two_servers_of_one_model_id_are_two_runs_and_aliases_are_applied_or_refused() {
+    let (a, b) = (Server::start(&["--policy", "expert"]), Server::start(&["--policy", "always_stop"]));
+    let out = scratch("identity");
+    for url in [a.base_url(), b.base_url()] {
+        let mut c = negotiator();
+        c.args([
+            "eval",
+            "--base-url",
+            &url,
+            "--model",
+            "same-id",
+            "--quiet",
+            "-n",
+            "2",
+            "--scenario",
+            "yield_standoff",
+        ])
+        .arg("--output")
+        .arg(&out);
+        assert_eq!(run(c).status.code(), Some(0));
+    }
+    let dirs: Vec<_> = std::fs::read_dir(&out).unwrap().flatten().map(|e| e.path()).collect();
+    assert_eq!(dirs.len(), 2, "{dirs:?}");
+    for d in &dirs {
+        let rj: Value = serde_json::from_str(&std::fs::read_to_string(d.join("run.json")).unwrap()).unwrap();
+        assert!(rj["config"]["endpoint"].as_str().unwrap().starts_with("http://127.0.0.1:"), "{rj}");
+    }
+
+    // An alias with --base-url is applied: its model id is what is sent.
+    let models = Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+    let seen = models.clone();
+    let url = mock(Arc::new(move |r: &Request| {
+        seen.lock().unwrap().push(r.body["model"].as_str().unwrap_or("").to_string());
+        reply(STOP)
+    }));
+    let file = out.join("endpoints.toml");
+    std::fs::write(
+        &file,
+        "[endpoints.far]\nbase_url = \"http://127.0.0.1:9/v1\"\n[endpoints.near]\nbase_url = \"http://127.0.0.1:9/v1\"\n\
+         [models.fast]\nendpoint = \"far\"\nid = \"vendor/fast-1\"\n",
+    )
+    .unwrap();
+    let alias = |extra: &[&str]| {
+        let mut c = negotiator();
+        c.args(["eval", "--model", "fast", "--quiet", "-n", "1", "--scenario", "yield_standoff", "--endpoints-file"])
+            .arg(&file)
+            .arg("--output")
+            .arg(out.join("alias"))
+            .args(extra);
+        run(c)
+    };
+    assert_eq!(alias(&["--base-url", &url]).status.code(), Some(0));
+    assert!(!models.lock().unwrap().is_empty());
+    assert!(models.lock().unwrap().iter().all(|m| m == "vendor/fast-1"), "{:?}", models.lock().unwrap());
+    let refused = alias(&["--endpoint", "near"]);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(stderr(&refused).contains("alias") && stderr(&refused).contains("--endpoint near"), "{}", stderr(&refused));
+}
+
+// ---------------------------------------------------------------------
+// Process faults (items 14, 15)
+
+#[test]
+fn closed_stdout_and_stderr_are_not_errors_and_run_json_is_finalized() {
+    let server = Server::start(&["--policy", "expert"]);
+    let out = scratch("closed-pipes");
+    let mut child = eval(&server.base_url(), &out, &["--scenario", "yield_standoff", "-n", "4"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the reading ends before eval writes anything.
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+    let rj = run_json(&out);
+    assert_eq!(rj["last_invocation"]["status"], "finished");
+    assert_eq!(rj["totals"]["episodes"], 4);
+
+    let mut child = negotiator()
+        .arg("report")
+        .arg(out.join("run"))
+        .arg("--out")
+        .arg(out.join("report"))
+        .args(["--tiers", "all"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    assert_eq!(child.wait().unwrap().code(), Some(0));
+    assert!(out.join("report/report.html").exists());
+}
+
+#[test]
+fn a_report_that_cannot_be_written_names_the_file_and_keeps_the_old_one_whole() {
+    let server = Server::start(&["--policy", "expert"]);
+    let out = scratch("report-atomic");
+    assert_eq!(
+        run(eval(&server.base_url(), &out, &["--scenario", "yield_standoff", "-n", "3", "--quiet"])).status.code(),
+        Some(0)
+    );
+    let report = |dest: &Path| {
+        let mut c = negotiator();
+        c.arg("report").arg(out.join("run")).arg("--out").arg(dest).args(["--tiers", "all", "-q"]);
+        run(c)
+    };
+    let dest = out.join("report");
+    assert_eq!(report(&dest).status.code(), Some(0));
+    let before: Vec<(String, String)> = every_file(&dest);
+    // report.md cannot be replaced (a directory is in its way).
+    std::fs::remove_file(dest.join("report.md")).unwrap();
+    std::fs::create_dir(dest.join("report.md")).unwrap();
+    std::fs::write(dest.join("report.md/keep"), "x").unwrap();
+    let r = report(&dest);
+    assert_ne!(r.status.code(), Some(0));
+    let err = stderr(&r);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("report.md"), "{err}");
+    let after = every_file(&dest);
+    assert!(!after.iter().any(|(p, _)| p.ends_with(".tmp")), "temporary files left: {after:?}");
+    for (path, text) in &before {
+        if path.ends_with("report.md") {
+            continue;
+        }
+        let now = after.iter().find(|(p, _)| p == path).unwrap_or_else(|| panic!("{path} was removed"));
+        // Files renamed before the failure hold the new report, whole; files
+        // after it the old one. Either way no file is truncated or missing.
+        assert!(now.1.len() * 2 > text.len() || text.len() < 64, "{path} looks truncated");
+    }
+    assert!(!every_file(&dest.join("plots")).is_empty(), "plots/ emptied");
+}

@@ -72,6 +72,7 @@ fn config(model: &str, temperature: Option<f64>) -> RunConfig {
         history: HistoryWindow::Full,
         prompt_hash: "p".into(),
         scenarios_hash: "s".into(),
+        endpoint: String::new(),
     }
 }
 
