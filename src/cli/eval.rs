@@ -15,6 +15,7 @@ use crate::eval::events::Reporter;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::eval::{EvalError, EvalOptions};
 use crate::hash::fnv1a64_hex;
+use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
 use crate::rundir::{HistoryWindow, RunConfig, Selection, Shard};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -66,8 +67,18 @@ pub struct EvalArgs {
     pub seed: u64,
     #[arg(long)]
     pub temperature: Option<f64>,
+    /// Completion-token limit, sent under the request profile's field
+    /// (max_tokens or max_completion_tokens). Thinking counts inside it.
     #[arg(long)]
     pub max_tokens: Option<u64>,
+    /// Request profile from the endpoints file (default: the endpoint's,
+    /// or the one its model_profiles pick for --model).
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// Ask for a reasoning effort (low, medium, high, ...), spelled the way
+    /// the request profile says.
+    #[arg(long)]
+    pub reasoning_effort: Option<String>,
     /// Extra request parameters as a JSON object, merged into every request
     /// (e.g. '{"top_p": 0.9, "seed": 1}').
     #[arg(long)]
@@ -104,9 +115,14 @@ pub struct EvalArgs {
     /// tokens (episodes in flight finish).
     #[arg(long)]
     pub max_total_tokens: Option<u64>,
-    /// Run shard K of N: seed index i runs when i mod N = K-1.
+    /// Run shard K of N: seed index i runs when i mod N = K-1. `auto`
+    /// reads a Slurm job array's or a Kubernetes Indexed Job's index.
     #[arg(long)]
     pub shard: Option<String>,
+    /// Shard count for `--shard auto` in a Kubernetes Indexed Job (its
+    /// `completions`); overrides Slurm's array count.
+    #[arg(long, env = "NEGOTIATOR_SHARD_COUNT")]
+    pub shard_count: Option<u64>,
     /// Scenario parameter file replacing the built-in one it declares
     /// (repeatable).
     #[arg(long = "scenario-file")]
@@ -155,6 +171,9 @@ struct Target {
     alias: Option<ModelAlias>,
     endpoint: Option<Endpoint>,
     base_url: String,
+    /// The request profile for this model, and its name.
+    profile_name: String,
+    profile: RequestProfile,
 }
 
 impl EvalArgs {
@@ -166,7 +185,7 @@ impl EvalArgs {
             self.api_key_var.clone().or_else(|| target.endpoint.as_ref().and_then(|e| e.api_key_env.clone()));
         let api_key = api_key(api_key_var.as_deref())?;
         let headers = self.headers(target.endpoint.as_ref())?;
-        let request_params = self.request_params(&target)?;
+        let built = self.request_params(&target)?;
         let history: HistoryWindow = self.history.parse().map_err(|e| usage(format!("--history: {e}")))?;
         let selection = self.selection()?;
         if self.concurrency == 0 {
@@ -175,7 +194,7 @@ impl EvalArgs {
         let scenario_set = ScenarioSet::with_overrides(&self.scenario_files)?;
         let config = RunConfig {
             model: target.model,
-            request_params,
+            request_params: built.params,
             history,
             prompt_hash: fnv1a64_hex(crate::eval::prompt::SYSTEM_PROMPT),
             scenarios_hash: scenarios_hash(&scenario_set),
@@ -198,6 +217,10 @@ impl EvalArgs {
                 retry,
             },
             api_key_var,
+            profile_name: target.profile_name,
+            profile: target.profile,
+            params_dropped: built.dropped,
+            params_forced: built.forced,
             scenario_set,
             selection,
             concurrency: self.concurrency,
@@ -259,7 +282,10 @@ impl EvalArgs {
         if !matches!(parsed_url.scheme(), "http" | "https") {
             return Err(usage(format!("--base-url '{base_url}': expected an http or https URL")));
         }
-        Ok(Target { model, alias, endpoint, base_url })
+        let (profile_name, profile) = file
+            .profile_for(self.profile.as_deref(), alias.as_ref(), endpoint.as_ref(), &model)
+            .map_err(|e| usage(e.to_string()))?;
+        Ok(Target { model, alias, endpoint, base_url, profile_name, profile })
     }
 
     /// The endpoint's headers, then `--header` ones (values marked
@@ -287,15 +313,18 @@ impl EvalArgs {
         Ok(headers)
     }
 
-    /// Request parameters: endpoint defaults, alias defaults, then flags.
-    fn request_params(&self, target: &Target) -> anyhow::Result<Map<String, Value>> {
-        let mut params: Map<String, Value> = target.endpoint.as_ref().map(|e| e.sampling.clone()).unwrap_or_default();
+    /// Request parameters: endpoint defaults, alias defaults, then flags,
+    /// shaped by the request profile.
+    fn request_params(&self, target: &Target) -> anyhow::Result<BuiltParams> {
+        let mut configured: Map<String, Value> =
+            target.endpoint.as_ref().map(|e| e.sampling.clone()).unwrap_or_default();
         if let Some(a) = &target.alias {
-            params.extend(a.sampling.clone());
+            configured.extend(a.sampling.clone());
         }
+        let mut flags: Map<String, Value> = Map::new();
         if let Some(raw) = &self.sampling_args {
             match serde_json::from_str::<Value>(raw) {
-                Ok(Value::Object(m)) => params.extend(m),
+                Ok(Value::Object(m)) => flags.extend(m),
                 Ok(_) => return Err(usage("--sampling-args: expected a JSON object")),
                 Err(e) => return Err(usage(format!("--sampling-args: {e}"))),
             }
@@ -304,31 +333,42 @@ impl EvalArgs {
             if !(t.is_finite() && t >= 0.0) {
                 return Err(usage(format!("--temperature: expected a non-negative number, got {t}")));
             }
-            params.insert("temperature".into(), Value::from(t));
+            flags.insert("temperature".into(), Value::from(t));
         }
         if let Some(m) = self.max_tokens {
             if m == 0 {
                 return Err(usage("--max-tokens: must be at least 1"));
             }
-            params.insert("max_tokens".into(), Value::from(m));
+            flags.remove("max_completion_tokens");
+            flags.insert("max_tokens".into(), Value::from(m));
         }
         if let Some(f) = &self.response_format {
             if !matches!(f.as_str(), "json_object" | "text") {
                 return Err(usage(format!("--response-format: expected json_object or text, got '{f}'")));
             }
-            params.insert("response_format".into(), serde_json::json!({ "type": f }));
+            flags.insert("response_format".into(), serde_json::json!({ "type": f }));
         }
         for reserved in ["model", "messages", "stream", "n"] {
-            if params.contains_key(reserved) {
+            if flags.contains_key(reserved) || configured.contains_key(reserved) {
                 return Err(usage(format!("--sampling-args: '{reserved}' is set by negotiator itself")));
             }
         }
-        Ok(params)
+        build_params(&target.profile_name, &target.profile, &configured, &flags, self.reasoning_effort.as_deref())
+            .map_err(|e| usage(e.to_string()))
     }
 
     /// Which episodes to play.
     fn selection(&self) -> anyhow::Result<Selection> {
-        let shard: Shard = match &self.shard {
+        let shard: Shard = match self.shard.as_deref().map(str::trim) {
+            Some("auto") => {
+                let (shard, source) =
+                    crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
+                        .map_err(usage)?;
+                if !self.quiet {
+                    eprintln!("shard {shard} (from the {source})");
+                }
+                shard
+            }
             Some(s) => s.parse().map_err(|e| usage(format!("--shard: {e}")))?,
             None => Shard::WHOLE,
         };
@@ -383,10 +423,16 @@ impl EvalArgs {
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let options = self.options()?;
         let mut reporter = self.reporter()?;
+        if !self.quiet {
+            for line in options.profile_notes() {
+                eprintln!("{line}");
+            }
+        }
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let outcome = match runtime.block_on(crate::eval::run(options, reporter.as_mut())) {
             Ok(o) => o,
             Err(EvalError::Refused(msg)) => return Err(RefusedError(msg).into()),
+            Err(EvalError::BadParameter(msg)) => return Err(usage(msg)),
             Err(EvalError::Store(e @ crate::eval::store::StoreError::ConfigChanged { .. })) => {
                 return Err(usage(e.to_string()));
             }

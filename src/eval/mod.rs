@@ -17,11 +17,13 @@ pub mod config;
 pub mod events;
 pub mod progress;
 pub mod prompt;
+pub mod shard_auto;
 pub mod store;
 pub mod summary;
 
 use crate::action::parse_action;
 use crate::episode::{Episode, EpisodeRecord, Outcome};
+use crate::llm::profile::{rejected_parameter, remedy_for};
 use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, Completion, LlmError, Role, Usage};
 use crate::observation::render_scene;
 use crate::rundir::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord, RolloutRecord, TurnRecord};
@@ -47,6 +49,13 @@ pub struct EvalOptions {
     pub client: ClientConfig,
     /// Name of the API-key variable, for messages and run.json (never the key).
     pub api_key_var: Option<String>,
+    /// The request profile that shaped `config.request_params`.
+    pub profile_name: String,
+    pub profile: crate::llm::profile::RequestProfile,
+    /// Configured fields the profile left out, and flag fields sent although
+    /// the profile does not list them (printed before the run).
+    pub params_dropped: Vec<String>,
+    pub params_forced: Vec<String>,
     pub scenario_set: ScenarioSet,
     pub selection: Selection,
     pub concurrency: usize,
@@ -57,12 +66,33 @@ pub struct EvalOptions {
 }
 
 impl EvalOptions {
+    /// Lines telling what the request profile changed, printed before a run.
+    pub fn profile_notes(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if !self.params_dropped.is_empty() {
+            out.push(format!(
+                "note: request profile '{}' leaves out {} (the model does not take it)",
+                self.profile_name,
+                self.params_dropped.join(", ")
+            ));
+        }
+        if !self.params_forced.is_empty() {
+            out.push(format!(
+                "note: sending {} because a flag asked, although request profile '{}' does not list it",
+                self.params_forced.join(", "),
+                self.profile_name
+            ));
+        }
+        out
+    }
+
     /// run.json's `endpoint`: names only, never the key or header values.
     fn endpoint(&self) -> Endpoint {
         Endpoint {
             api_key_env: self.api_key_var.clone(),
             base_url: crate::redact::url_without_userinfo(&self.client.base_url),
             header_names: self.client.headers.keys().map(|k| k.as_str().to_string()).collect(),
+            profile: Some(self.profile_name.clone()),
         }
     }
 
@@ -105,6 +135,9 @@ pub enum EvalError {
     Refused(String),
     #[error("{0}")]
     Rejected(String),
+    /// The endpoint rejected a parameter of the request: a usage error.
+    #[error("{0}")]
+    BadParameter(String),
     #[error("building the HTTP client: {0}")]
     Client(String),
     #[error("an episode task failed: {0}")]
@@ -567,6 +600,19 @@ fn fatal_error(e: LlmError, ctx: &Ctx, dir: &std::path::Path) -> EvalError {
         },
         LlmError::Refused { status: 404, .. } => {
             format!(" (check --model '{}' and the base URL {})", ctx.options.config.model, ctx.client.url())
+        }
+        // A 400 naming a parameter: the request profile or a flag is wrong
+        // for this model; say which setting changes it.
+        LlmError::Permanent { status: 400 | 422, message } => {
+            if let Some(p) = rejected_parameter(message, &ctx.options.config.request_params) {
+                let msg = format!(
+                    "{e} (the endpoint rejects '{p}': {}); the run was stopped, finished episodes are kept in {}",
+                    remedy_for(&p, &ctx.options.profile_name),
+                    dir.display()
+                );
+                return EvalError::BadParameter(msg);
+            }
+            String::new()
         }
         _ => String::new(),
     };

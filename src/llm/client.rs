@@ -285,6 +285,10 @@ pub fn interpret(bytes: &[u8]) -> Result<Completion, String> {
 /// else the body itself, clipped.
 fn error_message(bytes: &[u8]) -> String {
     match serde_json::from_slice::<serde_json::Value>(bytes) {
+        // Google's OpenAI-compatible endpoint wraps its error in an array.
+        Ok(serde_json::Value::Array(items)) if !items.is_empty() => {
+            clip(&error_text(items[0].get("error").unwrap_or(&items[0])), 300)
+        }
         Ok(v) => clip(&error_text(v.get("error").unwrap_or(&v)), 300),
         Err(_) => clip(String::from_utf8_lossy(bytes).trim(), 300),
     }

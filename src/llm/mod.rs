@@ -9,6 +9,7 @@
 //! 4xx statuses stop it as well.
 
 pub mod client;
+pub mod profile;
 pub mod types;
 
 pub use client::{

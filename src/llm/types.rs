@@ -117,6 +117,16 @@ pub struct ResponseMessage {
     pub extra: Map<String, Value>,
 }
 
+/// Token usage as providers report it. Besides the three OpenAI counts:
+/// - cached prompt tokens: `prompt_tokens_details.cached_tokens` (OpenAI,
+///   OpenRouter, vLLM), `prompt_cache_hit_tokens` (DeepSeek), a top-level
+///   `cached_tokens` (Together), `cache_read_input_tokens` (Anthropic's
+///   native field, passed through by some proxies);
+/// - reasoning tokens: `completion_tokens_details.reasoning_tokens`
+///   (OpenAI, OpenRouter, DeepSeek), part of `completion_tokens`. Gemini's
+///   OpenAI endpoint reports no such field and leaves its thinking out of
+///   `completion_tokens` while counting it in `total_tokens`; [`Usage::reasoning`]
+///   reads that gap as hidden reasoning.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Usage {
     #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
@@ -125,6 +135,30 @@ pub struct Usage {
     pub completion_tokens: Option<u64>,
     #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
     pub total_tokens: Option<u64>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub prompt_tokens_details: Option<PromptTokensDetails>,
+    #[serde(default, deserialize_with = "lenient", skip_serializing_if = "Option::is_none")]
+    pub completion_tokens_details: Option<CompletionTokensDetails>,
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub prompt_cache_hit_tokens: Option<u64>,
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub prompt_cache_miss_tokens: Option<u64>,
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub cached_tokens: Option<u64>,
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub cache_read_input_tokens: Option<u64>,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PromptTokensDetails {
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub cached_tokens: Option<u64>,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CompletionTokensDetails {
+    #[serde(default, deserialize_with = "lenient_count", skip_serializing_if = "Option::is_none")]
+    pub reasoning_tokens: Option<u64>,
 }
 
 impl Usage {
@@ -134,6 +168,39 @@ impl Usage {
             (None, None) => None,
             (p, c) => Some(p.unwrap_or(0) + c.unwrap_or(0)),
         })
+    }
+
+    /// Prompt tokens served from the provider's prompt cache, in whichever
+    /// spelling the provider uses (0 when it reports none).
+    pub fn cached(&self) -> u64 {
+        self.prompt_tokens_details
+            .and_then(|d| d.cached_tokens)
+            .or(self.prompt_cache_hit_tokens)
+            .or(self.cached_tokens)
+            .or(self.cache_read_input_tokens)
+            .unwrap_or(0)
+    }
+
+    /// Reasoning tokens: the reported count, else the part of the total
+    /// that neither prompt nor completion accounts for (hidden thinking).
+    pub fn reasoning(&self) -> u64 {
+        if let Some(r) = self.completion_tokens_details.and_then(|d| d.reasoning_tokens) {
+            return r;
+        }
+        self.hidden_reasoning()
+    }
+
+    /// Thinking counted in the total but not in `completion_tokens`.
+    pub fn hidden_reasoning(&self) -> u64 {
+        match (self.total_tokens, self.prompt_tokens, self.completion_tokens) {
+            (Some(t), Some(p), Some(c)) => t.saturating_sub(p + c),
+            _ => 0,
+        }
+    }
+
+    /// Output tokens billed: completion tokens plus hidden thinking.
+    pub fn billed_output(&self) -> u64 {
+        self.completion_tokens.unwrap_or(0) + self.hidden_reasoning()
     }
 }
 
@@ -231,6 +298,26 @@ mod tests {
         assert!(c.extra.contains_key("logprobs"));
         assert_eq!(c.message.as_ref().unwrap().text().as_deref(), Some("ab"));
         assert_eq!(r.usage.unwrap().total(), Some(7));
+    }
+
+    #[test]
+    fn cached_and_reasoning_tokens_in_every_spelling() {
+        let u = |s: &str| serde_json::from_str::<Usage>(s).unwrap();
+        let openai = u(r#"{"prompt_tokens":100,"completion_tokens":50,"total_tokens":150,
+            "prompt_tokens_details":{"cached_tokens":64,"audio_tokens":0},
+            "completion_tokens_details":{"reasoning_tokens":40}}"#);
+        assert_eq!((openai.cached(), openai.reasoning(), openai.billed_output()), (64, 40, 50));
+        let deepseek = u(r#"{"prompt_tokens":100,"completion_tokens":50,"total_tokens":150,
+            "prompt_cache_hit_tokens":80,"prompt_cache_miss_tokens":20,
+            "completion_tokens_details":{"reasoning_tokens":30}}"#);
+        assert_eq!((deepseek.cached(), deepseek.reasoning()), (80, 30));
+        let together = u(r#"{"prompt_tokens":10,"completion_tokens":5,"total_tokens":15,"cached_tokens":8}"#);
+        assert_eq!((together.cached(), together.reasoning()), (8, 0));
+        // Gemini: the thinking only shows in the total.
+        let gemini = u(r#"{"prompt_tokens":100,"completion_tokens":20,"total_tokens":620}"#);
+        assert_eq!((gemini.cached(), gemini.reasoning(), gemini.billed_output()), (0, 500, 520));
+        let odd = u(r#"{"prompt_tokens_details":"n/a","completion_tokens_details":{"reasoning_tokens":"7"}}"#);
+        assert_eq!((odd.cached(), odd.reasoning()), (0, 7));
     }
 
     #[test]

@@ -239,6 +239,9 @@ pub struct Endpoint {
     pub api_key_env: Option<String>,
     pub base_url: String,
     pub header_names: Vec<String>,
+    /// The request profile that shaped the body (absent before profiles).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<String>,
 }
 
 /// Operational knobs of an invocation (run.json `settings`); free to change
