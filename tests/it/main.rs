@@ -3,6 +3,7 @@
 mod core;
 mod eval;
 mod faults;
+mod providers;
 mod report;
 mod run_v0;
 mod serve;
