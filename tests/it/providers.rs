@@ -451,7 +451,7 @@ static PROVIDERS: &[Provider] = &[
     },
     Provider {
         endpoint: "gemini",
-        model: "gemini-2.5-flash",
+        model: "gemini-2.5-pro",
         key_var: Some("GEMINI_API_KEY"),
         rules: gemini_rules,
         shape: gemini_shape,
