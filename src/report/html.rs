@@ -239,6 +239,22 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     for p in trajectories {
         figure(&mut s, p);
     }
+    drill_section(&mut s, drill);
+    s.push_str("<h2 id=\"runs\">Runs</h2>");
+    s.push_str(&HtmlExporter.render(&report.runs_table()));
+    s.push_str("<h2 id=\"definitions\">Definitions</h2><dl class=\"defs\">");
+    for (term, def) in super::DEFINITIONS {
+        let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", esc(term), esc(def));
+    }
+    s.push_str("</dl></main>");
+    let _ = write!(s, "<script type=\"application/json\" id=\"drill-data\">{}</script>", script_json(drill));
+    let _ = writeln!(s, "<script>{JS}</script></body></html>");
+    s
+}
+
+/// The drill-down's controls and empty turn table; the page's script fills
+/// them from the embedded data.
+fn drill_section(s: &mut String, drill: &DrillData) {
     let _ = write!(
         s,
         "<h2>Episode drill-down</h2><div id=\"drill\" data-state=\"loading\"><div class=\"controls\">\
@@ -261,16 +277,6 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
         },
         super::drill::MAX_TEXT
     );
-    s.push_str("<h2 id=\"runs\">Runs</h2>");
-    s.push_str(&HtmlExporter.render(&report.runs_table()));
-    s.push_str("<h2 id=\"definitions\">Definitions</h2><dl class=\"defs\">");
-    for (term, def) in super::DEFINITIONS {
-        let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", esc(term), esc(def));
-    }
-    s.push_str("</dl></main>");
-    let _ = write!(s, "<script type=\"application/json\" id=\"drill-data\">{}</script>", script_json(drill));
-    let _ = writeln!(s, "<script>{JS}</script></body></html>");
-    s
 }
 
 fn figure(s: &mut String, p: &super::plots::Plot) {

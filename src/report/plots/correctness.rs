@@ -15,7 +15,23 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
     let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 60.0);
     let title = format!("Success vs decision correctness ({})", tiers_label(&lb.tiers));
     svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
-    rate_axis_y(&mut svg, top, size, left, left + size);
+    frame(&mut svg, left, top, size);
+    points(&mut svg, input, left, top, size);
+    legend(&mut svg, input, left + size + 24.0, top + 6.0);
+    Plot {
+        name: "success_vs_correctness".into(),
+        title: title.clone(),
+        caption: "Each point is a model on a scenario: x its decision correctness, y its success. On the diagonal, right \
+                  calls become successes; below it, the model made the right call but failed the episode (typically \
+                  by stalling into a timeout); above it, it succeeded despite wrong calls (luck or a forgiving opponent)."
+            .into(),
+        svg: svg.finish(&title),
+    }
+}
+
+/// Both rate axes, their labels and the diagonal.
+fn frame(svg: &mut Svg, left: f64, top: f64, size: f64) {
+    rate_axis_y(svg, top, size, left, left + size);
     for k in 0..=4 {
         let v = f64::from(k) / 4.0;
         let x = left + v * size;
@@ -41,6 +57,12 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         "middle",
         &format!(" transform=\"rotate(-90 14 {})\"", top + size / 2.0),
     );
+}
+
+/// The reference policies (hollow), then every model on every scenario
+/// (colour: model, shape: scenario).
+fn points(svg: &mut Svg, input: &PlotInput, left: f64, top: f64, size: f64) {
+    let lb = input.leaderboard;
     let at = |dc: f64, s: f64| (left + dc.clamp(0.0, 1.0) * size, top + size - s.clamp(0.0, 1.0) * size);
     // Reference policies, hollow.
     for (policy, color) in [(CEILING, CEILING_COLOR), (FLOOR, FLOOR_COLOR)] {
@@ -71,16 +93,17 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
             svg.marker(k, x, y, 5.0, super::color(i), INK, Some(&tip));
         }
     }
-    // Legend: models (colour), scenarios (shape), references (hollow).
-    let lx = left + size + 24.0;
-    let mut y = top + 6.0;
-    for (i, m) in models.iter().enumerate() {
+}
+
+/// Models (colour), scenarios (shape), references (hollow), from (lx, y).
+fn legend(svg: &mut Svg, input: &PlotInput, lx: f64, mut y: f64) {
+    for (i, m) in input.models().iter().enumerate() {
         svg.rect(lx, y - 9.0, 12.0, 10.0, super::color(i), "");
         svg.text(lx + 17.0, y, m, 11.0, "start", "");
         y += 16.0;
     }
     y += 8.0;
-    for (k, s) in lb.scenarios.iter().enumerate() {
+    for (k, s) in input.leaderboard.scenarios.iter().enumerate() {
         svg.marker(k, lx + 6.0, y - 4.0, 5.0, "#777", INK, None);
         svg.text(lx + 17.0, y, &s.to_string(), 11.0, "start", "");
         y += 16.0;
@@ -90,14 +113,5 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         svg.circle(lx + 6.0, y - 4.0, 5.0, "none", color, None);
         svg.text(lx + 17.0, y, label, 11.0, "start", "");
         y += 16.0;
-    }
-    Plot {
-        name: "success_vs_correctness".into(),
-        title: title.clone(),
-        caption: "Each point is a model on a scenario: x its decision correctness, y its success. On the diagonal, right \
-                  calls become successes; below it, the model made the right call but failed the episode (typically \
-                  by stalling into a timeout); above it, it succeeded despite wrong calls (luck or a forgiving opponent)."
-            .into(),
-        svg: svg.finish(&title),
     }
 }

@@ -15,7 +15,9 @@ struct Axis {
     tiers: Vec<Tier>,
 }
 
-pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
+/// The radar's axes: the leaderboard's scenarios, else the (scenario, tier)
+/// cells of the per-tier table.
+fn axes(input: &PlotInput) -> Vec<Axis> {
     let lb = input.leaderboard;
     let mut axes: Vec<Axis> =
         lb.scenarios.iter().map(|&s| Axis { label: s.to_string(), scenario: s, tiers: lb.tiers.clone() }).collect();
@@ -27,6 +29,27 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
             .map(|(s, t)| Axis { label: format!("{s} t{t}"), scenario: s, tiers: vec![t] })
             .collect();
     }
+    axes
+}
+
+/// A model's success on one axis.
+fn value_of(input: &PlotInput, model: &str, a: &Axis) -> Option<f64> {
+    let lb = input.leaderboard;
+    if a.tiers == lb.tiers {
+        let r = lb.rows.iter().find(|r| r.model == model)?;
+        let i = lb.scenarios.iter().position(|&s| s == a.scenario)?;
+        r.scenarios[i].as_ref().map(|c| c.success.estimate)
+    } else {
+        input
+            .tiers
+            .iter()
+            .find(|r| r.model == model && r.scenario == a.scenario && r.tier == a.tiers[0])
+            .map(|r| r.success.estimate)
+    }
+}
+
+pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
+    let axes = axes(input);
     if axes.len() < 3 {
         return None;
     }
@@ -41,19 +64,6 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
     lx += svg.legend_item(lx, 42.0, CEILING_COLOR, "expert", true);
     svg.legend_item(lx, 42.0, FLOOR_COLOR, "always_proceed", true);
     let k = axes.len();
-    let value_of = |model: &str, a: &Axis| -> Option<f64> {
-        if a.tiers == lb.tiers {
-            let r = lb.rows.iter().find(|r| r.model == model)?;
-            let i = lb.scenarios.iter().position(|&s| s == a.scenario)?;
-            r.scenarios[i].as_ref().map(|c| c.success.estimate)
-        } else {
-            input
-                .tiers
-                .iter()
-                .find(|r| r.model == model && r.scenario == a.scenario && r.tier == a.tiers[0])
-                .map(|r| r.success.estimate)
-        }
-    };
     for (i, m) in models.iter().enumerate() {
         let cx = (i % cols) as f64 * cell_w + cell_w / 2.0;
         let cy = 58.0 + (i / cols) as f64 * cell_h + cell_h / 2.0 + 14.0;
@@ -88,7 +98,7 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
                 svg.polygon(&pts, "none", 0.0, color, Some("5 3"));
             }
         }
-        let vals: Vec<Option<f64>> = axes.iter().map(|a| value_of(m, a)).collect();
+        let vals: Vec<Option<f64>> = axes.iter().map(|a| value_of(input, m, a)).collect();
         let pts: Vec<(f64, f64)> = vals.iter().enumerate().map(|(j, v)| point(j, v.unwrap_or(0.0))).collect();
         svg.polygon(&pts, super::color(i), 0.25, super::color(i), None);
         for (j, v) in vals.iter().enumerate() {
