@@ -102,6 +102,12 @@ pub enum ActionParseError {
     NotANumber { field: NumericField, value: String },
     #[error("{field} {value} is outside [-1, 1]")]
     OutOfRange { field: NumericField, value: String },
+    /// The reply was longer than `--max-reply-bytes` and was cut there.
+    #[error("the reply is longer than {limit} bytes (--max-reply-bytes) and was cut")]
+    Oversized { limit: usize },
+    /// The reply's bytes were not UTF-8 (decoded lossily).
+    #[error("the reply is not valid UTF-8")]
+    InvalidUtf8,
 }
 
 impl ActionParseError {
@@ -120,6 +126,8 @@ impl ActionParseError {
             ActionParseError::MissingAcceleration => "missing_acceleration",
             ActionParseError::NotANumber { .. } => "not_a_number",
             ActionParseError::OutOfRange { .. } => "out_of_range",
+            ActionParseError::Oversized { .. } => "oversized",
+            ActionParseError::InvalidUtf8 => "invalid_utf8",
         }
     }
 }

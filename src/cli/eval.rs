@@ -102,6 +102,11 @@ pub struct EvalArgs {
     /// Retries per request after the first attempt.
     #[arg(long, default_value_t = 10)]
     pub max_retries: u32,
+    /// Longest reply (and reasoning) kept, in bytes: a longer one is cut
+    /// there, stored and sent back cut, flagged `reply_capped` and scored as
+    /// a parse error. The HTTP body is read up to 16x this plus 64 KiB.
+    #[arg(long, default_value_t = crate::llm::DEFAULT_MAX_REPLY_BYTES)]
+    pub max_reply_bytes: usize,
     /// Per-request timeout in seconds.
     #[arg(long, default_value_t = 120.0)]
     pub request_timeout: f64,
@@ -215,6 +220,7 @@ impl EvalArgs {
                 headers,
                 request_timeout: positive_secs(self.request_timeout, "--request-timeout")?,
                 retry,
+                max_reply_bytes: self.max_reply_bytes_checked()?,
             },
             api_key_var,
             profile_name: target.profile_name,
@@ -394,6 +400,15 @@ impl EvalArgs {
             )));
         }
         Ok(Selection { base_seed: self.seed, rollouts: self.rollouts, scenarios, seeds: self.seeds, shard, tiers })
+    }
+
+    /// `--max-reply-bytes`, between 1 KiB and 64 MiB.
+    fn max_reply_bytes_checked(&self) -> anyhow::Result<usize> {
+        let n = self.max_reply_bytes;
+        if !(1024..=64 << 20).contains(&n) {
+            return Err(usage(format!("--max-reply-bytes: expected 1024 to 67108864 bytes, got {n}")));
+        }
+        Ok(n)
     }
 
     /// `--run-name`, or `<model>-<config hash>`.

@@ -159,6 +159,10 @@ enum EpisodeError {
     Infra { turn: u32, message: String },
     /// The endpoint refuses the run: stop everything.
     Fatal(LlmError),
+    /// The conversation outgrew the model's context at `turn`: recorded in
+    /// errors.jsonl, missing from the scores; no new episode is started,
+    /// the ones in flight finish.
+    ContextOverflow { turn: u32, error: LlmError },
 }
 
 struct Ctx {
@@ -167,6 +171,17 @@ struct Ctx {
     system: ChatMessage,
     hash: String,
     counters: Arc<Counters>,
+    /// The preflight request's outcome: the answer to the first turn of
+    /// that episode, used by it instead of asking again.
+    first_turn: std::sync::Mutex<Option<(EpisodeKey, Result<Completion, LlmError>)>>,
+}
+
+impl Ctx {
+    /// The preflight's answer, if `key`'s first turn was the preflight.
+    fn take_first_turn(&self, key: EpisodeKey) -> Option<Result<Completion, LlmError>> {
+        let mut slot = self.first_turn.lock().unwrap_or_else(|e| e.into_inner());
+        if slot.as_ref().is_some_and(|(k, _)| *k == key) { slot.take().map(|(_, r)| r) } else { None }
+    }
 }
 
 /// Current UTC time as RFC 3339 (`2025-01-31T12:00:00Z`).
@@ -211,8 +226,64 @@ pub async fn run(options: EvalOptions, reporter: &mut dyn Reporter) -> Result<Ru
     let counters = Arc::new(Counters::default());
     reporter.attach(counters.clone());
     let mut run = prepare(options, counters, reporter)?;
-    let drove = drive(&mut run, reporter).await;
+    let drove = match preflight(&run).await {
+        Ok(()) => drive(&mut run, reporter).await,
+        Err(e) => {
+            reporter.event(&Event::Stopped { reason: StopReason::Refused });
+            Drove { stop: Some(StopReason::Refused), fatal: Some(e), failure: None }
+        }
+    };
     finalize(run, drove, reporter)
+}
+
+/// One request before the fleet starts: the first turn of the first
+/// episode still to play (that episode then uses the answer, so nothing is
+/// paid twice). A dead endpoint (connection refused, DNS, TLS), a wrong key
+/// or model, a request the endpoint rejects, or an unrequested event stream
+/// ends the run here within seconds with one line, instead of every episode
+/// spending its whole retry schedule. Transient HTTP statuses (429, 5xx)
+/// are retried as usual; if they run out, that episode is an infrastructure
+/// error like any other and the outage rule takes over.
+async fn preflight(run: &Prepared) -> Result<(), LlmError> {
+    let Some(&key) = run.todo.first() else { return Ok(()) };
+    let ctx = &run.ctx;
+    let opts = &ctx.options;
+    let episode = Episode::new(opts.scenario_set.get(key.scenario), key.tier, key.seed);
+    let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
+    let history = History::default();
+    let messages = history.messages(&ctx.system, opts.config.history, &scene);
+    let request = ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
+    let on_retry = |message: &str| {
+        ctx.counters.retries.fetch_add(1, Relaxed);
+        ctx.counters.record_error(message);
+    };
+    match ctx.client.preflight(&request, on_retry).await {
+        Ok(c) => *ctx.first_turn.lock().unwrap_or_else(|e| e.into_inner()) = Some((key, Ok(c))),
+        Err(e @ LlmError::Exhausted { .. }) => {
+            *ctx.first_turn.lock().unwrap_or_else(|e| e.into_inner()) = Some((key, Err(e)))
+        }
+        Err(e) => return Err(e),
+    }
+    Ok(())
+}
+
+/// The action of a reply, with the transport's verdicts added: a reply cut
+/// at the size cap, or not valid UTF-8, is the model's bad output and
+/// drives as the conservative stop, like any other parse error.
+fn parse_reply(completion: &Completion, max_reply_bytes: usize) -> crate::action::ParsedAction {
+    let mut parsed = parse_action(completion.content.as_deref().unwrap_or(""));
+    let mut flagged = Vec::new();
+    if completion.capped {
+        flagged.push(crate::action::ActionParseError::Oversized { limit: max_reply_bytes });
+    }
+    if completion.invalid_utf8 {
+        flagged.push(crate::action::ActionParseError::InvalidUtf8);
+    }
+    if !flagged.is_empty() {
+        parsed.action = crate::action::Action::CONSERVATIVE;
+        parsed.errors.splice(0..0, flagged);
+    }
+    parsed
 }
 
 /// A run directory ready to play: resumed, checked, run.json marked running.
@@ -288,6 +359,7 @@ fn prepare(
         hash,
         counters,
         options,
+        first_turn: std::sync::Mutex::new(None),
     });
     let writer = Writer::start(&dir)?;
     Ok(Prepared {
@@ -403,6 +475,34 @@ impl Driver<'_> {
         true
     }
 
+    /// An episode whose conversation outgrew the model's context: record it
+    /// in errors.jsonl (it stays missing, never silently out of the
+    /// denominator), start no new episode, and let the ones in flight finish
+    /// so that no paid-for work is thrown away. The run then ends as refused.
+    fn context_overflow(&mut self, key: EpisodeKey, turn: u32, error: LlmError) {
+        let counters = &self.run.ctx.counters;
+        counters.infra_errors.fetch_add(1, Relaxed);
+        counters.done.fetch_add(1, Relaxed);
+        self.run.invocation.infra_errors += 1;
+        let message = error.to_string();
+        let rec = InfraErrorRecord {
+            schema_version: SCHEMA_VERSION,
+            scenario: key.scenario,
+            tier: key.tier,
+            seed: key.seed,
+            rollout: key.rollout,
+            turn,
+            error: message.clone(),
+            at: now_rfc3339(),
+        };
+        let _ = self.run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+        self.reporter.event(&Event::InfraError { key, turn, error: message });
+        if self.drove.fatal.is_none() {
+            self.drove.fatal = Some(error);
+        }
+        self.stop(StopReason::Refused);
+    }
+
     /// An episode whose retries ran out: record it in errors.jsonl, and
     /// stop starting episodes once too many in a row failed.
     fn infra_error(&mut self, key: EpisodeKey, turn: u32, message: String) {
@@ -483,6 +583,7 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
                 }
             }
             Err(EpisodeError::Infra { turn, message }) => driver.infra_error(key, turn, message),
+            Err(EpisodeError::ContextOverflow { turn, error }) => driver.context_overflow(key, turn, error),
             Err(EpisodeError::Fatal(e)) => {
                 set.abort_all();
                 let refused = matches!(e, LlmError::Refused { .. });
@@ -612,14 +713,23 @@ fn fatal_error(e: LlmError, ctx: &Ctx, dir: &std::path::Path) -> EvalError {
                 );
                 return EvalError::BadParameter(msg);
             }
-            String::new()
+            " (the endpoint rejects the request itself: check --sampling-args, --response-format and --max-tokens)"
+                .to_string()
         }
+        LlmError::ContextOverflow { .. } => " (the overflowing episode is recorded in errors.jsonl and stays missing; \
+             re-run with --history last:K, e.g. --history last:4, to bound the conversation: a new run directory, since \
+             the history window is part of the configuration)"
+            .to_string(),
         _ => String::new(),
     };
     let msg = format!("{e}{hint}; the run was stopped, finished episodes are kept in {}", dir.display());
     match e {
-        LlmError::Refused { .. } => EvalError::Refused(msg),
-        _ => EvalError::Rejected(msg),
+        LlmError::Refused { .. }
+        | LlmError::ContextOverflow { .. }
+        | LlmError::Unreachable { .. }
+        | LlmError::UnrequestedStream { .. }
+        | LlmError::Permanent { .. } => EvalError::Refused(msg),
+        LlmError::Exhausted { .. } => EvalError::Rejected(msg),
     }
 }
 
@@ -689,20 +799,31 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         let messages = history.messages(&ctx.system, opts.config.history, &scene);
         let request =
             ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
-        let on_retry = || {
+        let on_retry = |message: &str| {
             retries.fetch_add(1, Relaxed);
             ctx.counters.retries.fetch_add(1, Relaxed);
+            ctx.counters.record_error(message);
         };
-        let completion = match ctx.client.chat(&request, on_retry).await {
+        let answer = match ctx.take_first_turn(key) {
+            Some(pre) => {
+                // Retries of the preflight belong to this episode.
+                let extra = pre.as_ref().map_or(opts.client.retry.max_retries, |c| c.attempts.saturating_sub(1));
+                retries.fetch_add(extra, Relaxed);
+                pre
+            }
+            None => ctx.client.chat(&request, on_retry).await,
+        };
+        let completion = match answer {
             Ok(c) => c,
             Err(e @ LlmError::Exhausted { .. }) => {
                 return Err(EpisodeError::Infra { turn, message: e.to_string() });
             }
+            Err(e @ LlmError::ContextOverflow { .. }) => return Err(EpisodeError::ContextOverflow { turn, error: e }),
             Err(e) => return Err(EpisodeError::Fatal(e)),
         };
         let sent_bytes: usize = messages.iter().map(|m| m.content.len()).sum();
         drop(messages);
-        let parsed = parse_action(completion.content.as_deref().unwrap_or(""));
+        let parsed = parse_reply(&completion, ctx.options.client.max_reply_bytes);
         let (tokens, estimated) = turn_tokens(&completion, sent_bytes);
         ctx.counters.tokens.fetch_add(tokens, Relaxed);
         ctx.counters.turns.fetch_add(1, Relaxed);
@@ -720,6 +841,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             usage: completion.usage,
             tokens,
             tokens_estimated: estimated,
+            reply_capped: completion.capped,
             latency_ms: completion.latency.as_millis() as u64,
             attempts: completion.attempts,
             after_resolution: false,

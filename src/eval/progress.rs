@@ -22,6 +22,22 @@ pub struct Counters {
     pub retries: AtomicU64,
     pub tokens: AtomicU64,
     pub turns: AtomicU64,
+    /// The latest failed request's cause and when it happened, for the
+    /// progress line (an outage shows why while it happens).
+    pub last_error: std::sync::Mutex<Option<(Instant, String)>>,
+}
+
+impl Counters {
+    pub fn record_error(&self, message: &str) {
+        let mut last = self.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        *last = Some((Instant::now(), message.to_string()));
+    }
+
+    /// The latest failure, if it happened within the last 30 s.
+    fn recent_error(&self) -> Option<String> {
+        let last = self.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        last.as_ref().filter(|(at, _)| at.elapsed() < Duration::from_secs(30)).map(|(_, m)| m.clone())
+    }
 }
 
 fn human(n: u64) -> String {
@@ -36,12 +52,16 @@ fn status(c: &Counters) -> String {
     let done = c.done.load(Relaxed);
     let success = c.success.load(Relaxed);
     let rate = if done == 0 { "-".to_string() } else { format!("{:.2}", success as f64 / done as f64) };
-    format!(
+    let mut line = format!(
         "success {rate} | infra errors {} | retries {} | tokens {}",
         c.infra_errors.load(Relaxed),
         c.retries.load(Relaxed),
         human(c.tokens.load(Relaxed))
-    )
+    );
+    if let Some(e) = c.recent_error() {
+        line.push_str(&format!(" | last error: {}", crate::llm::client::clip(&e, 100)));
+    }
+    line
 }
 
 /// The human-readable line of an event, if it has one (progress itself is

@@ -36,8 +36,54 @@ pub enum LlmError {
     Refused { status: u16, message: String },
     #[error("the endpoint rejected the request (HTTP {status}): {message}")]
     Permanent { status: u16, message: String },
+    /// A 400/413 saying the conversation no longer fits the model's context.
+    #[error("the conversation outgrew the model's context window (HTTP {status}): {message}")]
+    ContextOverflow { status: u16, message: String },
+    /// The preflight request could not reach the endpoint at all.
+    #[error("the endpoint is unreachable: {message}")]
+    Unreachable { message: String },
+    /// A server-sent event stream that was not asked for.
+    #[error(
+        "the endpoint answered with a server-sent event stream (Content-Type: {content_type}) although the request \
+         did not ask for streaming; this client reads whole JSON replies: point --base-url at the OpenAI-compatible \
+         /v1 API of the server (not a streaming proxy)"
+    )]
+    UnrequestedStream { content_type: String },
     #[error("gave up after {attempts} attempts; last error: {last}")]
     Exhausted { attempts: u32, last: String },
+}
+
+/// Whether an error body (of a 400, 413 or 422) says the prompt is longer
+/// than the model's context window. Providers word it differently: OpenAI's
+/// `context_length_exceeded` code, vLLM's "maximum context length",
+/// Anthropic-style "prompt is too long", llama.cpp's "context size".
+pub fn is_context_overflow(status: u16, body: &str) -> bool {
+    if !matches!(status, 400 | 413 | 422) {
+        return false;
+    }
+    let b = body.to_ascii_lowercase();
+    [
+        "context_length_exceeded",
+        "context length",
+        "maximum context",
+        "context window",
+        "context size",
+        "prompt is too long",
+        "too many tokens",
+        "reduce the length of the messages",
+    ]
+    .iter()
+    .any(|needle| b.contains(needle))
+}
+
+/// Default cap on a stored (and resent) reply, `--max-reply-bytes`.
+pub const DEFAULT_MAX_REPLY_BYTES: usize = 64 * 1024;
+
+/// The most bytes of one HTTP body read, for a given reply cap: room for a
+/// capped reply, its reasoning and the JSON around them. Reading stops
+/// there, so a runaway endpoint cannot exhaust memory.
+pub fn body_limit(max_reply_bytes: usize) -> usize {
+    max_reply_bytes.saturating_mul(16).saturating_add(64 * 1024)
 }
 
 /// Retry schedule.
@@ -118,6 +164,9 @@ pub struct ClientConfig {
     pub headers: HeaderMap,
     pub request_timeout: Duration,
     pub retry: RetryPolicy,
+    /// Replies (and reasoning) longer than this are cut to it, flagged, and
+    /// scored as a parse error.
+    pub max_reply_bytes: usize,
 }
 
 impl std::fmt::Debug for ClientConfig {
@@ -128,6 +177,7 @@ impl std::fmt::Debug for ClientConfig {
             .field("headers", &self.headers.keys().collect::<Vec<_>>())
             .field("request_timeout", &self.request_timeout)
             .field("retry", &self.retry)
+            .field("max_reply_bytes", &self.max_reply_bytes)
             .finish()
     }
 }
@@ -149,12 +199,22 @@ pub struct Completion {
     pub attempts: u32,
     /// Wall time of the successful attempt.
     pub latency: Duration,
+    /// The reply (or the HTTP body) was longer than the cap and was cut.
+    pub capped: bool,
+    /// The body was not valid UTF-8 and was decoded lossily.
+    pub invalid_utf8: bool,
 }
 
 /// Why one attempt failed.
 #[derive(Debug)]
 enum AttemptError {
-    Transient { message: String, retry_after: Option<Duration> },
+    /// `connect`: the request never reached a server (refused, DNS, TLS,
+    /// connect timeout).
+    Transient {
+        message: String,
+        retry_after: Option<Duration>,
+        connect: bool,
+    },
     Fatal(LlmError),
 }
 
@@ -198,8 +258,27 @@ impl Client {
     }
 
     /// Send one chat request, retrying transient failures. `on_retry` is
-    /// called before each backoff sleep (for progress counters).
-    pub async fn chat(&self, request: &ChatRequest<'_>, on_retry: impl Fn()) -> Result<Completion, LlmError> {
+    /// called with the failure's message before each backoff sleep (for
+    /// progress counters and the progress line).
+    pub async fn chat(&self, request: &ChatRequest<'_>, on_retry: impl Fn(&str)) -> Result<Completion, LlmError> {
+        self.send(request, on_retry, false).await
+    }
+
+    /// The request sent before any episode starts. Like [`Client::chat`],
+    /// except that a request that never reaches a server (connection
+    /// refused, DNS failure, TLS error, connect timeout) is not retried: it
+    /// ends at once as [`LlmError::Unreachable`] with a one-line diagnosis,
+    /// instead of minutes of backoff per episode.
+    pub async fn preflight(&self, request: &ChatRequest<'_>, on_retry: impl Fn(&str)) -> Result<Completion, LlmError> {
+        self.send(request, on_retry, true).await
+    }
+
+    async fn send(
+        &self,
+        request: &ChatRequest<'_>,
+        on_retry: impl Fn(&str),
+        fail_fast_on_connect: bool,
+    ) -> Result<Completion, LlmError> {
         // Serialise once; every attempt sends the same bytes.
         let body = serde_json::to_vec(request).expect("a chat request always serialises");
         let mut last = String::new();
@@ -213,10 +292,13 @@ impl Client {
                     return Ok(c);
                 }
                 Err(AttemptError::Fatal(e)) => return Err(e),
-                Err(AttemptError::Transient { message, retry_after }) => {
+                Err(AttemptError::Transient { message, connect: true, .. }) if fail_fast_on_connect => {
+                    return Err(LlmError::Unreachable { message: format!("{message} ({})", self.url) });
+                }
+                Err(AttemptError::Transient { message, retry_after, .. }) => {
                     last = message;
                     if attempt + 1 < attempts_allowed {
-                        on_retry();
+                        on_retry(&last);
                         tokio::time::sleep(self.config.retry.delay(attempt, retry_after, self.unit())).await;
                     }
                 }
@@ -225,32 +307,117 @@ impl Client {
         Err(LlmError::Exhausted { attempts: attempts_allowed, last })
     }
 
+    /// One POST: its completion, or why it failed and whether that is
+    /// worth retrying. The body is read up to a hard limit; an unrequested
+    /// event stream and a context overflow are recognised here.
     async fn attempt(&self, body: &[u8]) -> Result<Completion, AttemptError> {
-        let transient = |message: String| AttemptError::Transient { message, retry_after: None };
-        let response = self
-            .http
-            .post(&self.url)
-            .timeout(self.config.request_timeout)
-            .body(body.to_vec())
-            .send()
-            .await
-            .map_err(|e| transient(describe_reqwest(&e)))?;
+        let transient = |message: String| AttemptError::Transient { message, retry_after: None, connect: false };
+        let response =
+            self.http.post(&self.url).timeout(self.config.request_timeout).body(body.to_vec()).send().await.map_err(
+                |e| AttemptError::Transient {
+                    message: describe_reqwest(&e),
+                    retry_after: None,
+                    connect: e.is_connect(),
+                },
+            )?;
         let status = response.status();
         let retry_after = retry_after_of(response.headers());
-        let bytes =
-            response.bytes().await.map_err(|e| transient(format!("reading the reply: {}", describe_reqwest(&e))))?;
+        let content_type =
+            response.headers().get(CONTENT_TYPE).and_then(|v| v.to_str().ok()).unwrap_or("").to_ascii_lowercase();
+        let limit = body_limit(self.config.max_reply_bytes);
+        let (bytes, cut) = read_bounded(response, limit)
+            .await
+            .map_err(|e| transient(format!("reading the reply: {}", describe_reqwest(&e))))?;
         if !status.is_success() {
-            let message = format!("{}: {}", status, error_message(&bytes));
+            let message = format!("{status}: {}", error_message(&bytes));
+            if is_context_overflow(status.as_u16(), &String::from_utf8_lossy(&bytes)) {
+                return Err(AttemptError::Fatal(LlmError::ContextOverflow { status: status.as_u16(), message }));
+            }
             return Err(match classify_status(status.as_u16()) {
-                FailureClass::Transient => AttemptError::Transient { message, retry_after },
+                FailureClass::Transient => AttemptError::Transient { message, retry_after, connect: false },
                 FailureClass::Refused => AttemptError::Fatal(LlmError::Refused { status: status.as_u16(), message }),
                 FailureClass::Permanent => {
                     AttemptError::Fatal(LlmError::Permanent { status: status.as_u16(), message })
                 }
             });
         }
-        interpret(&bytes).map_err(|message| AttemptError::Transient { message, retry_after })
+        if content_type.starts_with("text/event-stream") || bytes.trim_ascii_start().starts_with(b"data:") {
+            let content_type =
+                if content_type.is_empty() { "none; the body starts with 'data:'".to_string() } else { content_type };
+            return Err(AttemptError::Fatal(LlmError::UnrequestedStream { content_type }));
+        }
+        if cut {
+            // The body itself is over the hard limit: no JSON to read. The
+            // model's runaway output is kept up to the cap as a capped
+            // reply: a parse error, never an infrastructure error.
+            let cap = self.config.max_reply_bytes;
+            let text = String::from_utf8_lossy(&bytes[..bytes.len().min(cap)]).into_owned();
+            let text = clip_bytes(&text, cap).to_string();
+            return Ok(Completion { content: Some(text), capped: true, ..Completion::default() });
+        }
+        interpret_capped(&bytes, self.config.max_reply_bytes).map_err(|message| AttemptError::Transient {
+            message,
+            retry_after,
+            connect: false,
+        })
     }
+}
+
+/// Read a response body, stopping after `limit` bytes (the rest is never
+/// read: the connection is dropped). Returns the bytes and whether the body
+/// was cut.
+async fn read_bounded(mut response: reqwest::Response, limit: usize) -> Result<(Vec<u8>, bool), reqwest::Error> {
+    let mut buf: Vec<u8> = Vec::new();
+    while let Some(chunk) = response.chunk().await? {
+        if buf.len() + chunk.len() > limit {
+            buf.extend_from_slice(&chunk[..limit - buf.len()]);
+            return Ok((buf, true));
+        }
+        buf.extend_from_slice(&chunk);
+    }
+    Ok((buf, false))
+}
+
+/// The longest prefix of `s` of at most `max` bytes that ends on a
+/// character boundary.
+fn clip_bytes(s: &str, max: usize) -> &str {
+    if s.len() <= max {
+        return s;
+    }
+    let mut end = max;
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    &s[..end]
+}
+
+/// [`interpret`], then the reply cap: content and reasoning longer than
+/// `max_reply_bytes` are cut and the completion flagged. A body that is not
+/// UTF-8 is decoded lossily (the model's bad output, not an outage) and
+/// flagged.
+pub fn interpret_capped(bytes: &[u8], max_reply_bytes: usize) -> Result<Completion, String> {
+    let mut c = match interpret(bytes) {
+        Ok(c) => c,
+        Err(e) if std::str::from_utf8(bytes).is_err() => {
+            let mut c = interpret(String::from_utf8_lossy(bytes).as_bytes()).map_err(|_| e)?;
+            c.invalid_utf8 = true;
+            c
+        }
+        Err(e) => return Err(e),
+    };
+    if c.content.as_ref().is_some_and(|t| t.len() > max_reply_bytes) {
+        let content = clip_bytes(c.content.as_deref().unwrap_or(""), max_reply_bytes).to_string();
+        c.answer = split_think(&content).0;
+        c.content = Some(content);
+        c.capped = true;
+    }
+    if let Some(r) = c.reasoning.as_mut()
+        && r.len() > max_reply_bytes
+    {
+        *r = clip_bytes(r, max_reply_bytes).to_string();
+        c.capped = true;
+    }
+    Ok(c)
 }
 
 /// Turn a successful HTTP body into a completion, or a transient failure
@@ -302,6 +469,31 @@ fn error_text(err: &serde_json::Value) -> String {
 }
 
 fn describe_reqwest(e: &reqwest::Error) -> String {
+    let chain = {
+        let mut parts = Vec::new();
+        let mut source = std::error::Error::source(e);
+        while let Some(s) = source {
+            parts.push(s.to_string().to_ascii_lowercase());
+            source = s.source();
+        }
+        parts.join(": ")
+    };
+    // The causes a user can act on, named plainly.
+    if e.is_connect() {
+        if chain.contains("connection refused") {
+            return "connection refused (nothing is listening there: is the server running, is the port right?)".into();
+        }
+        if chain.contains("dns") || chain.contains("lookup") || chain.contains("name or service not known") {
+            return "DNS lookup failed (check the host name in the base URL)".into();
+        }
+        if ["certificate", "tls", "handshake", "ssl", "corrupt message", "invalidcontenttype"]
+            .iter()
+            .any(|w| chain.contains(w))
+        {
+            let detail = chain.rsplit(": ").next().unwrap_or("");
+            return format!("TLS handshake failed ({detail}); check https vs http and the server's certificate");
+        }
+    }
     let kind = if e.is_timeout() {
         "timed out"
     } else if e.is_connect() {
@@ -428,6 +620,45 @@ mod tests {
     }
 
     #[test]
+    fn context_overflow_is_recognised_in_providers_wordings() {
+        for body in [
+            r#"{"error":{"message":"This model's maximum context length is 8192 tokens.","code":"context_length_exceeded"}}"#,
+            r#"{"error":"prompt is too long: 210000 tokens > 200000 maximum"}"#,
+            "the request exceeds the available context size, try increasing it",
+        ] {
+            assert!(is_context_overflow(400, body), "{body}");
+        }
+        assert!(!is_context_overflow(400, r#"{"error":"unknown parameter top_q"}"#));
+        assert!(!is_context_overflow(500, "maximum context length"), "a 5xx is an outage, retried");
+    }
+
+    #[test]
+    fn replies_over_the_cap_are_cut_and_flagged() {
+        let long = "x".repeat(100);
+        let body = serde_json::json!({"choices": [{"message": {"content": format!("{{}}{long}"), "reasoning": long}}]});
+        let c = interpret_capped(body.to_string().as_bytes(), 10).unwrap();
+        assert_eq!(c.content.as_deref(), Some("{}xxxxxxxx"));
+        assert_eq!(c.reasoning.as_deref().map(str::len), Some(10));
+        assert!(c.capped);
+        let c = interpret_capped(body.to_string().as_bytes(), 1000).unwrap();
+        assert!(!c.capped);
+        // A multi-byte character is never split.
+        let body = serde_json::json!({"choices": [{"message": {"content": "ééééé"}}]});
+        assert_eq!(interpret_capped(body.to_string().as_bytes(), 5).unwrap().content.as_deref(), Some("éé"));
+    }
+
+    #[test]
+    fn invalid_utf8_is_decoded_lossily_and_flagged() {
+        let mut body = br#"{"choices":[{"message":{"content":"{\"maneuver\":\"stop\"} "#.to_vec();
+        body.extend_from_slice(&[0xff, 0xfe]);
+        body.extend_from_slice(br#""}}]}"#);
+        let c = interpret_capped(&body, 1000).unwrap();
+        assert!(c.invalid_utf8);
+        assert!(c.content.unwrap().contains('\u{fffd}'));
+        assert!(interpret_capped(b"\xff not json", 1000).is_err());
+    }
+
+    #[test]
     fn debug_never_shows_the_key() {
         let c = ClientConfig {
             base_url: "http://x".into(),
@@ -435,6 +666,7 @@ mod tests {
             headers: HeaderMap::new(),
             request_timeout: Duration::from_secs(1),
             retry: RetryPolicy::default(),
+            max_reply_bytes: DEFAULT_MAX_REPLY_BYTES,
         };
         assert!(!format!("{c:?}").contains("sk-secret"));
     }

@@ -13,6 +13,7 @@ pub mod profile;
 pub mod types;
 
 pub use client::{
-    Client, ClientConfig, Completion, FailureClass, LlmError, RetryPolicy, classify_status, parse_retry_after,
+    Client, ClientConfig, Completion, DEFAULT_MAX_REPLY_BYTES, FailureClass, LlmError, RetryPolicy, classify_status,
+    is_context_overflow, parse_retry_after,
 };
 pub use types::{ChatMessage, ChatRequest, ChatResponse, Role, Usage, split_think};

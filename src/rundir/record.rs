@@ -55,6 +55,10 @@ pub struct TurnRecord {
     pub tokens: u64,
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub tokens_estimated: bool,
+    /// The reply was cut at `--max-reply-bytes` (stored and resent cut; a
+    /// parse error).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub reply_capped: bool,
     /// Wall time of the successful request (ms).
     pub latency_ms: u64,
     /// Requests made for this turn (1 = no retry).

@@ -405,3 +405,194 @@ fn a_report_that_cannot_be_written_names_the_file_and_keeps_the_old_one_whole() 
     }
     assert!(!every_file(&dest.join("plots")).is_empty(), "plots/ emptied");
 }
+
+// ---------------------------------------------------------------------
+// Work never thrown away (items 8, 9)
+
+const PROCEED: &str = r#"{"maneuver":"proceed","acceleration":1.0}"#;
+
+fn user_turns(body: &Value) -> usize {
+    body["messages"].as_array().map_or(0, |m| m.iter().filter(|m| m["role"] == "user").count())
+}
+
+#[test]
+fn a_context_overflow_keeps_every_finished_episode_and_names_the_remedy() {
+    // Full acceleration: yield_standoff seeds 1-3 end within 9 turns, seed 0
+    // needs 12; the endpoint's context holds 10 turns.
+    let url = mock(Arc::new(|r: &Request| {
+        if user_turns(&r.body) > 10 {
+            respond(
+                400,
+                json!({"error": {"message": "This model's maximum context length is 8192 tokens.", "code": "context_length_exceeded"}}),
+            )
+        } else {
+            reply(PROCEED)
+        }
+    }));
+    let out = scratch("overflow");
+    let r = run(eval(&url, &out, &["--scenario", "yield_standoff", "-n", "4", "-c", "4", "--quiet"]));
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    let err = stderr(&r);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("context") && err.contains("--history last:"), "{err}");
+    let seeds: Vec<u64> = rollout_lines(&out).iter().map(|l| l["seed"].as_u64().unwrap()).collect();
+    assert_eq!(seeds.len(), 3, "every finished episode is on disk: {seeds:?}");
+    assert!(!seeds.contains(&0));
+    let errors = std::fs::read_to_string(out.join("run/errors.jsonl")).unwrap();
+    let errors: Vec<Value> = errors.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(errors.len(), 1);
+    assert_eq!((errors[0]["seed"].as_u64(), errors[0]["turn"].as_u64()), (Some(0), Some(11)));
+    let rj = run_json(&out);
+    assert_eq!(rj["last_invocation"]["status"], "refused");
+    assert_eq!(rj["totals"]["missing"], 1, "the overflowing episode stays in the denominator as missing");
+}
+
+/// A port on 127.0.0.1 that nothing listens on.
+fn dead_port() -> u16 {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    l.local_addr().unwrap().port()
+}
+
+#[test]
+fn an_unreachable_endpoint_ends_the_run_at_the_preflight_with_one_line() {
+    let out = scratch("unreachable");
+    // Default retry schedule: without a preflight this takes minutes.
+    let refused = format!("http://127.0.0.1:{}/v1", dead_port());
+    let mut c = negotiator();
+    c.args(["eval", "--base-url", &refused, "--model", "m", "-q", "-n", "50", "--run-name", "r", "--output"]).arg(&out);
+    let r = run(c);
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    let err = stderr(&r);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("unreachable") && err.contains("connection refused"), "{err}");
+    // TLS spoken to a plain-HTTP server.
+    let plain = mock(Arc::new(|_: &Request| reply(STOP)));
+    let mut c = negotiator();
+    c.args(["eval", "--base-url", &plain.replace("http://", "https://"), "--model", "m", "-q", "-n", "50"])
+        .args(["--run-name", "tls", "--output"])
+        .arg(&out);
+    let r = run(c);
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    assert!(stderr(&r).contains("TLS"), "{}", stderr(&r));
+    // A 400 on the first request: one request, one line.
+    let count = Arc::new(AtomicUsize::new(0));
+    let seen = count.clone();
+    let url = mock(Arc::new(move |_: &Request| {
+        seen.fetch_add(1, SeqCst);
+        respond(400, json!({"error": {"message": "Unrecognized request argument supplied: top_q"}}))
+    }));
+    let r = run(eval(&url, &out, &["-n", "50", "-c", "8", "--quiet"]));
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    assert_eq!(stderr(&r).trim().lines().count(), 1, "{}", stderr(&r));
+    assert!(stderr(&r).contains("top_q") && stderr(&r).contains("--sampling-args"), "{}", stderr(&r));
+    assert_eq!(count.load(SeqCst), 1, "the fleet never started");
+}
+
+#[test]
+fn an_outage_prints_its_cause_on_the_progress_line() {
+    let url = mock(Arc::new(|r: &Request| {
+        if r.index < 4 {
+            respond(503, json!({"error": {"message": "upstream overloaded, try later"}}))
+        } else {
+            reply(STOP)
+        }
+    }));
+    let out = scratch("outage-cause");
+    let mut c = negotiator();
+    c.args(["eval", "--base-url", &url, "--model", "m", "--run-name", "r", "--scenario", "yield_standoff", "-n", "1"])
+        .args(["--backoff-base-ms", "300", "--backoff-max", "2", "--events", "lines", "--progress-interval", "0.2"])
+        .arg("--output")
+        .arg(&out);
+    let r = run(c);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let err = stderr(&r);
+    assert!(
+        err.lines()
+            .any(|l| l.contains("episodes |") && l.contains("last error: 503") && l.contains("upstream overloaded")),
+        "{err}"
+    );
+}
+
+// ---------------------------------------------------------------------
+// Bounded inputs (items 10, 12)
+
+#[test]
+fn huge_replies_are_capped_stored_and_resent_cut_and_scored_as_parse_errors() {
+    let longest_resent = Arc::new(AtomicUsize::new(0));
+    let seen = longest_resent.clone();
+    let url = mock(Arc::new(move |r: &Request| {
+        let longest = r.body["messages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|m| m["role"] == "assistant")
+            .map(|m| m["content"].as_str().unwrap_or("").len())
+            .max()
+            .unwrap_or(0);
+        seen.fetch_max(longest, SeqCst);
+        // Odd turns: 200 KB of content; even turns: a 3 MB body, past the
+        // hard limit on the body read.
+        let size = if r.index.is_multiple_of(2) { 200_000 } else { 3_000_000 };
+        reply(&format!("{STOP}{}", "z".repeat(size)))
+    }));
+    let out = scratch("huge-reply");
+    let r = run(eval(&url, &out, &["--scenario", "yield_standoff", "-n", "1", "--quiet"]));
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let text = std::fs::read_to_string(out.join("run/rollouts.jsonl")).unwrap();
+    let line: Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+    let turns = line["turns"].as_array().unwrap();
+    assert!(turns.len() > 2);
+    for t in turns {
+        assert!(t["reply"].as_str().unwrap().len() <= 64 * 1024);
+        assert_eq!(t["reply_capped"], true);
+        assert_eq!(t["parse_errors"][0]["kind"], "oversized", "{}", t["parse_errors"]);
+        assert_eq!(t["action"]["maneuver"], "stop");
+        assert_eq!(t["attempts"], 1, "a capped reply is not retried");
+    }
+    assert_eq!(line["parse_error_turns"], line["turns_taken"]);
+    assert!(longest_resent.load(SeqCst) <= 64 * 1024, "resent {} bytes", longest_resent.load(SeqCst));
+    assert!(text.len() < turns.len() * 70 * 1024, "the stored line is bounded");
+}
+
+#[test]
+fn an_unrequested_event_stream_is_diagnosed_once_with_its_cause() {
+    use axum::response::IntoResponse;
+    let count = Arc::new(AtomicUsize::new(0));
+    let seen = count.clone();
+    let url = mock(Arc::new(move |_: &Request| {
+        seen.fetch_add(1, SeqCst);
+        let body = format!("data: {}\n\ndata: [DONE]\n\n", json!({"choices": [{"delta": {"content": STOP}}]}));
+        ([(axum::http::header::CONTENT_TYPE, "text/event-stream")], body).into_response()
+    }));
+    let out = scratch("sse");
+    let r = run(eval(&url, &out, &["-n", "20", "-c", "8", "--quiet"]));
+    assert_eq!(r.status.code(), Some(3), "{}", stderr(&r));
+    let err = stderr(&r);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("server-sent event stream") && err.contains("text/event-stream"), "{err}");
+    assert_eq!(count.load(SeqCst), 1);
+}
+
+#[test]
+fn invalid_utf8_in_a_reply_is_a_parse_error_not_an_outage() {
+    use axum::response::IntoResponse;
+    let url = mock(Arc::new(|_: &Request| {
+        let mut body =
+            br#"{"choices":[{"message":{"role":"assistant","content":"{\"maneuver\":\"proceed\",\"acceleration\":1} "#
+                .to_vec();
+        body.extend_from_slice(&[0xc3, 0x28, 0xff]);
+        body.extend_from_slice(br#""},"finish_reason":"stop"}]}"#);
+        ([(axum::http::header::CONTENT_TYPE, "application/json")], body).into_response()
+    }));
+    let out = scratch("utf8");
+    let r = run(eval(&url, &out, &["--scenario", "pedestrian_feint", "-n", "1", "--quiet", "--max-retries", "2"]));
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    let lines = rollout_lines(&out);
+    assert_eq!(lines.len(), 1);
+    for t in lines[0]["turns"].as_array().unwrap() {
+        assert_eq!(t["attempts"], 1, "never retried");
+        assert!(t["reply"].as_str().unwrap().contains('\u{fffd}'));
+        assert!(t["parse_errors"].as_array().unwrap().iter().any(|e| e["kind"] == "invalid_utf8"));
+        assert_eq!(t["action"]["maneuver"], "stop");
+    }
+}
