@@ -87,6 +87,15 @@ pub fn parse_scalars(line: &[u8], scratch: &mut Vec<u8>) -> Option<EpisodeScalar
     serde_json::from_slice::<EpisodeScalars>(line).ok()
 }
 
+/// Whether a line holds two records glued together (a newline lost by a
+/// crash or a careless copy): `}{` followed by a record's first key. Such a
+/// line is unreadable as a whole, for eval and report alike: counting only
+/// its first record would drop the second silently.
+fn is_glued(line: &[u8]) -> bool {
+    const MARKERS: [&[u8]; 2] = [b"}{\"schema_version\":", b"}{\"model\":"];
+    MARKERS.iter().any(|m| line.windows(m.len()).any(|w| w == *m))
+}
+
 /// Which configuration a line belongs to.
 #[derive(Debug, Deserialize)]
 struct LineIdentity {
@@ -115,7 +124,7 @@ pub fn read_rollouts(
     let mut read = RolloutsRead::default();
     let mut scratch = Vec::with_capacity(4096);
     let torn = for_each_line(path, |at, line| {
-        match parse_scalars(line, &mut scratch) {
+        match parse_scalars(line, &mut scratch).filter(|_| !is_glued(line)) {
             Some(s) => {
                 if read.model.is_none() || read.config_hash.is_none() {
                     // Once per file in practice (every line names both): the whole line.
@@ -156,6 +165,16 @@ mod tests {
     use super::*;
     use crate::episode::Outcome;
     use crate::scenario::Tier;
+
+    #[test]
+    fn glued_lines_are_unreadable_not_half_counted() {
+        let a =
+            r#"{"schema_version":1,"model":"m","scenario":"yield_standoff","tier":1,"seed":0,"rollout":0,"turns":[]}"#;
+        let b = a.replace("\"seed\":0", "\"seed\":1");
+        assert!(!is_glued(a.as_bytes()));
+        assert!(is_glued(format!("{a}{b}").as_bytes()));
+        assert!(is_glued(format!("{a}{}", r#"{"model":"m"}"#).as_bytes()));
+    }
 
     #[test]
     fn fast_path_and_fallback_agree() {

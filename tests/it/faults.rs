@@ -596,3 +596,36 @@ fn invalid_utf8_in_a_reply_is_a_parse_error_not_an_outage() {
         assert_eq!(t["action"]["maneuver"], "stop");
     }
 }
+
+// ---------------------------------------------------------------------
+// One reader for eval and report (item 6)
+
+#[test]
+fn glued_lines_are_skipped_with_a_warning_and_rerun_without_duplicates() {
+    let server = Server::start(&["--policy", "expert"]);
+    let out = scratch("glued");
+    let args = ["--scenario", "yield_standoff", "-n", "4", "--quiet"];
+    assert_eq!(run(eval(&server.base_url(), &out, &args)).status.code(), Some(0));
+    let path = out.join("run/rollouts.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    let glued = format!("{}{}", lines[1], lines[2]);
+    lines.splice(1..3, [glued.as_str()]);
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    // eval re-runs both halves of the glued line, appending one line each.
+    assert_eq!(run(eval(&server.base_url(), &out, &args)).status.code(), Some(0));
+    let all: Vec<String> = std::fs::read_to_string(&path).unwrap().lines().map(str::to_string).collect();
+    assert_eq!(all.len(), 5);
+    let readable: Vec<Value> = all.iter().filter_map(|l| serde_json::from_str(l).ok()).collect();
+    let seeds: std::collections::HashSet<u64> = readable.iter().map(|l| l["seed"].as_u64().unwrap()).collect();
+    assert_eq!((readable.len(), seeds.len()), (4, 4), "one readable line per episode");
+    // report counts the four episodes and warns about the skipped line.
+    let mut c = negotiator();
+    c.arg("report").arg(out.join("run")).arg("--out").arg(out.join("report")).args(["--tiers", "all"]);
+    let r = run(c);
+    assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
+    assert!(stderr(&r).contains("warning") && stderr(&r).contains("line"), "{}", stderr(&r));
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report/report.json")).unwrap()).unwrap();
+    assert_eq!(report["models"][0]["episodes"], 4);
+}
