@@ -96,7 +96,7 @@ pub(crate) fn table(summary: &Summary) -> Table {
             Column::new("correctness", "decision_correctness"),
             Column::new("parse errors", "parse_error_rate"),
             Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
-            Column::new("infra errors", "missing"),
+            Column::new("missing", "missing"),
         ],
     );
     for c in &summary.cells {

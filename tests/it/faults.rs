@@ -186,6 +186,8 @@ fn key_echoes_in_errors_replies_and_url_userinfo_reach_no_file_and_no_terminal()
     let errors = std::fs::read_to_string(out.join("run/errors.jsonl")).unwrap();
     assert!(errors.contains("internal error for key") || errors.contains("upstream rejected"), "{errors}");
     assert_eq!(rollout_lines(&out).len(), 1, "{}", stderr(&r));
+    // The summary's last column counts missing episodes and says so.
+    assert!(stdout(&r).lines().any(|l| l.trim_end().ends_with("| missing |")), "{}", stdout(&r));
     let run_json = run_json(&out);
     assert!(run_json["last_invocation"]["endpoint"]["base_url"].as_str().unwrap().starts_with("http://127.0.0.1:"));
     // The report of that directory leaks nothing either.
