@@ -11,7 +11,7 @@
 
 use super::{RefusedError, exit, parse_list, usage};
 use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias, sanitize_name};
-use crate::eval::events::Reporter;
+use crate::eval::events::{Reporter, StopReason};
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::eval::{EvalError, EvalOptions};
 use crate::hash::fnv1a64_hex;
@@ -120,6 +120,10 @@ pub struct EvalArgs {
     /// tokens (episodes in flight finish).
     #[arg(long)]
     pub max_total_tokens: Option<u64>,
+    /// Score turns cut off by the completion-token limit instead of
+    /// stopping the run when more than 2% of the first 50 episodes' turns are.
+    #[arg(long)]
+    pub allow_truncation: bool,
     /// Run shard K of N: seed index i runs when i mod N = K-1. `auto`
     /// reads a Slurm job array's or a Kubernetes Indexed Job's index.
     #[arg(long)]
@@ -232,6 +236,7 @@ impl EvalArgs {
             concurrency: self.concurrency,
             run_dir: self.output.join(run_name),
             max_total_tokens: self.max_total_tokens,
+            allow_truncation: self.allow_truncation,
             trajectories: !self.no_trajectories,
         })
     }
@@ -443,6 +448,9 @@ impl EvalArgs {
                 eprintln!("{line}");
             }
         }
+        let limit = crate::llm::profile::TOKEN_LIMIT_FIELDS
+            .iter()
+            .find_map(|f| options.config.request_params.get(*f).and_then(Value::as_u64).map(|n| (*f, n)));
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let outcome = match runtime.block_on(crate::eval::run(options, reporter.as_mut())) {
             Ok(o) => o,
@@ -455,6 +463,9 @@ impl EvalArgs {
         };
         crate::redact::term::out(&crate::eval::summary::render(&outcome.summary));
         crate::redact::term::out(&format!("results: {}\n", outcome.run_dir.display()));
+        if let Some(StopReason::Truncation { truncated, turns }) = outcome.stop {
+            return Err(usage(crate::eval::truncation::stop_message(truncated, turns, limit)));
+        }
         if outcome.missing == 0 {
             return Ok(ExitCode::SUCCESS);
         }

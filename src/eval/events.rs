@@ -20,6 +20,9 @@ pub enum StopReason {
     TokenBudget,
     /// `streak` episodes in a row ran out of retries: the endpoint looks down.
     Outage { streak: u32 },
+    /// Too many turns were cut off by the completion-token limit (see
+    /// [`super::truncation`]); episodes in flight were abandoned.
+    Truncation { truncated: u64, turns: u64 },
     /// Ctrl-C; episodes in flight were abandoned.
     Interrupted,
     /// The endpoint refused the run (authentication, unknown model).
@@ -34,9 +37,10 @@ impl StopReason {
         match self {
             StopReason::TokenBudget => 0,
             StopReason::Outage { .. } => 1,
-            StopReason::Interrupted => 2,
-            StopReason::Refused => 3,
-            StopReason::Failed => 4,
+            StopReason::Truncation { .. } => 2,
+            StopReason::Interrupted => 3,
+            StopReason::Refused => 4,
+            StopReason::Failed => 5,
         }
     }
 
@@ -52,6 +56,9 @@ impl std::fmt::Display for StopReason {
             StopReason::TokenBudget => f.write_str("stopped by --max-total-tokens, or infrastructure errors"),
             StopReason::Outage { streak } => {
                 write!(f, "the endpoint looks down: stopped after {streak} consecutive infrastructure errors")
+            }
+            StopReason::Truncation { truncated, turns } => {
+                write!(f, "stopped: {truncated} of {turns} turns were cut off by the token limit")
             }
             StopReason::Interrupted => f.write_str("interrupted"),
             StopReason::Refused => f.write_str("the endpoint refused the run"),

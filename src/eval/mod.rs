@@ -20,6 +20,7 @@ pub mod prompt;
 pub mod shard_auto;
 pub mod store;
 pub mod summary;
+pub mod truncation;
 
 use crate::action::parse_action;
 use crate::episode::{Episode, EpisodeRecord, Outcome};
@@ -61,6 +62,8 @@ pub struct EvalOptions {
     pub concurrency: usize,
     pub run_dir: PathBuf,
     pub max_total_tokens: Option<u64>,
+    /// Score cut-off turns instead of stopping the run (see [`truncation`]).
+    pub allow_truncation: bool,
     /// Keep plan-view trajectories in each line (for plots).
     pub trajectories: bool,
 }
@@ -432,6 +435,8 @@ struct Driver<'a> {
     tokens_spent: u64,
     /// Infrastructure errors since the last finished episode.
     infra_streak: u32,
+    /// None with --allow-truncation.
+    truncation: Option<truncation::TruncationGuard>,
     outage_streak: u32,
 }
 
@@ -471,6 +476,12 @@ impl Driver<'_> {
         });
         if self.run.ctx.options.max_total_tokens.is_some_and(|b| self.tokens_spent >= b) {
             self.stop(StopReason::TokenBudget);
+        }
+        if let Some(guard) = self.truncation.as_mut()
+            && let truncation::Verdict::Stop { truncated, turns } =
+                guard.observe(scalars.turns_taken, scalars.truncated_turns)
+        {
+            self.stop(StopReason::Truncation { truncated, turns });
         }
         true
     }
@@ -545,8 +556,14 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
         drove: Drove { stop: None, fatal: None, failure: None },
         tokens_spent: 0,
         infra_streak: 0,
+        truncation: None,
         outage_streak: OUTAGE_STREAK.min(concurrency as u32).max(3),
     };
+    let (guard, primed_stop) = truncation_guard(&ctx.options, &driver.run.finished, driver.run.selection.len());
+    driver.truncation = guard;
+    if let Some(stop) = primed_stop {
+        driver.stop(stop);
+    }
     let ctrl_c = tokio::signal::ctrl_c();
     tokio::pin!(ctrl_c);
     loop {
@@ -581,6 +598,12 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
                     set.abort_all();
                     break;
                 }
+                if matches!(driver.drove.stop, Some(StopReason::Truncation { .. })) {
+                    // Pause the fleet: every turn in flight is likely cut
+                    // off too; those episodes re-run on the next invocation.
+                    set.abort_all();
+                    break;
+                }
             }
             Err(EpisodeError::Infra { turn, message }) => driver.infra_error(key, turn, message),
             Err(EpisodeError::ContextOverflow { turn, error }) => driver.context_overflow(key, turn, error),
@@ -596,6 +619,29 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
     // Let aborted tasks wind down before the writer closes.
     while set.join_next().await.is_some() {}
     driver.drove
+}
+
+/// The truncation rule's counter, primed with the episodes already stored
+/// (they are the run's first), and the stop they already call for (a
+/// resumed run that broke the rule stops before playing); none with
+/// --allow-truncation.
+fn truncation_guard(
+    options: &EvalOptions,
+    finished: &HashMap<EpisodeKey, EpisodeScalars>,
+    selected: usize,
+) -> (Option<truncation::TruncationGuard>, Option<StopReason>) {
+    if options.allow_truncation {
+        return (None, None);
+    }
+    let mut guard = truncation::TruncationGuard::new(selected as u64, crate::sim::MAX_TURNS);
+    let mut stored: Vec<&EpisodeScalars> = finished.values().collect();
+    stored.sort_by_key(|s| s.key());
+    for s in stored {
+        if let truncation::Verdict::Stop { truncated, turns } = guard.observe(s.turns_taken, s.truncated_turns) {
+            return (Some(guard), Some(StopReason::Truncation { truncated, turns }));
+        }
+    }
+    (Some(guard), None)
 }
 
 /// Close the writer, record the invocation's totals and status in
@@ -829,6 +875,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         ctx.counters.turns.fetch_add(1, Relaxed);
         episode.step(parsed.action);
         let answer = prompt::history_answer(&completion.answer);
+        let truncated = completion.finish_reason.as_deref() == Some("length");
         turns.push(TurnRecord {
             turn,
             scene: scene.content.clone(),
@@ -838,6 +885,9 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             action: parsed.action,
             action_reasoning: parsed.reasoning,
             parse_errors: parsed.errors,
+            truncated,
+            reasoning_tokens: completion.usage.map_or(0, |u| u.reasoning()),
+            cached_tokens: completion.usage.map_or(0, |u| u.cached()),
             usage: completion.usage,
             tokens,
             tokens_estimated: estimated,
@@ -894,10 +944,15 @@ fn rollout_record(
         decision_correctness: graded.grades.decision_correctness,
         diagnostics: graded.grades.diagnostics,
         turns_taken: turns.len() as u32,
-        parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty()).count() as u32,
+        // A cut-off reply is counted as truncated, not as a parse error.
+        parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty() && !t.truncated).count() as u32,
         tokens: turns.iter().map(|t| t.tokens).sum(),
         prompt_tokens: usage(|u| u.prompt_tokens),
-        completion_tokens: usage(|u| u.completion_tokens),
+        // Billed output: thinking that only the total reports counts too.
+        completion_tokens: usage(|u| u.completion_tokens.map(|c| c + u.hidden_reasoning())),
+        truncated_turns: turns.iter().filter(|t| t.truncated).count() as u32,
+        reasoning_tokens: turns.iter().map(|t| t.reasoning_tokens).sum(),
+        cached_tokens: turns.iter().map(|t| t.cached_tokens).sum(),
         latency_ms: turns.iter().map(|t| t.latency_ms).sum(),
         retries,
         wall_ms: started.elapsed().as_millis() as u64,

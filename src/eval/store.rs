@@ -245,6 +245,9 @@ mod tests {
             tokens: 100,
             prompt_tokens: 90,
             completion_tokens: 10,
+            truncated_turns: 0,
+            reasoning_tokens: 0,
+            cached_tokens: 0,
             latency_ms: 5,
             retries: 0,
         };

@@ -27,8 +27,13 @@ pub struct CellSummary {
     pub timeout_rate: f64,
     pub mean_reward: f64,
     pub decision_correctness: f64,
-    /// Fraction of decision turns whose reply could not be read.
+    /// Fraction of decision turns whose reply could not be read (cut-off
+    /// replies excepted: they are `truncated_rate`).
     pub parse_error_rate: f64,
+    /// Fraction of decision turns cut off by the completion-token limit
+    /// (`finish_reason: "length"`).
+    #[serde(default)]
+    pub truncated_rate: f64,
     pub tokens_per_episode: f64,
 }
 
@@ -40,6 +45,17 @@ pub struct Summary {
     pub mean_success: f64,
     pub episodes: usize,
     pub missing: usize,
+    /// Token totals over the scored episodes, as the provider reported
+    /// them: prompt (of which served from its cache), completion (of which
+    /// reasoning).
+    #[serde(default)]
+    pub prompt_tokens: u64,
+    #[serde(default)]
+    pub cached_tokens: u64,
+    #[serde(default)]
+    pub completion_tokens: u64,
+    #[serde(default)]
+    pub reasoning_tokens: u64,
 }
 
 /// `cells`: for each (scenario, tier) of the selection, the finished
@@ -54,6 +70,7 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
         let success: Vec<f64> = eps.iter().map(|e| f64::from(u8::from(e.outcome == Outcome::Success))).collect();
         let turns: u64 = eps.iter().map(|e| e.turns_taken as u64).sum();
         let bad: u64 = eps.iter().map(|e| e.parse_error_turns as u64).sum();
+        let cut: u64 = eps.iter().map(|e| e.truncated_turns as u64).sum();
         out.push(CellSummary {
             scenario: *scenario,
             tier: *tier,
@@ -67,15 +84,21 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
             mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
             decision_correctness: mean(&eps.iter().map(|e| e.decision_correctness).collect::<Vec<_>>()),
             parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
+            truncated_rate: if turns == 0 { f64::NAN } else { cut as f64 / turns as f64 },
             tokens_per_episode: mean(&eps.iter().map(|e| e.tokens as f64).collect::<Vec<_>>()),
         });
     }
+    let sum = |part: fn(&EpisodeScalars) -> u64| cells.iter().flat_map(|c| c.2.iter()).map(part).sum::<u64>();
     let scored: Vec<f64> = out.iter().filter(|c| c.episodes > 0).map(|c| c.success.estimate).collect();
     Summary {
         model: model.to_string(),
         mean_success: mean(&scored),
         episodes: out.iter().map(|c| c.episodes).sum(),
         missing: out.iter().map(|c| c.missing).sum(),
+        prompt_tokens: sum(|e| e.prompt_tokens),
+        cached_tokens: sum(|e| e.cached_tokens),
+        completion_tokens: sum(|e| e.completion_tokens),
+        reasoning_tokens: sum(|e| e.reasoning_tokens),
         cells: out,
     }
 }
@@ -95,6 +118,7 @@ pub(crate) fn table(summary: &Summary) -> Table {
             Column::new("reward", "mean_reward"),
             Column::new("correctness", "decision_correctness"),
             Column::new("parse errors", "parse_error_rate"),
+            Column::new("truncated", "truncated_rate"),
             Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
             Column::new("missing", "missing"),
         ],
@@ -110,6 +134,7 @@ pub(crate) fn table(summary: &Summary) -> Table {
             Cell::Float(c.mean_reward),
             Cell::Float(c.decision_correctness),
             Cell::Float(c.parse_error_rate),
+            Cell::Float(c.truncated_rate),
             Cell::Float(c.tokens_per_episode),
             Cell::Int(c.missing as u64),
         ]);
@@ -121,12 +146,22 @@ pub(crate) fn table(summary: &Summary) -> Table {
 /// leaderboard in Markdown, and the totals.
 pub fn render(summary: &Summary) -> String {
     format!(
-        "model: {}\n\n{}\nmean success over cells: {}; {} episodes scored, {} missing\n",
+        "model: {}\n\n{}\nmean success over cells: {}; {} episodes scored, {} missing\n\
+         tokens: {} prompt ({} cached, {}), {} completion ({} reasoning)\n",
         summary.model,
         MarkdownExporter { heading_level: 2 }.render(&table(summary)),
         f2(summary.mean_success),
         summary.episodes,
-        summary.missing
+        summary.missing,
+        summary.prompt_tokens,
+        summary.cached_tokens,
+        if summary.prompt_tokens == 0 {
+            "-".to_string()
+        } else {
+            format!("{:.0}%", 100.0 * summary.cached_tokens as f64 / summary.prompt_tokens as f64)
+        },
+        summary.completion_tokens,
+        summary.reasoning_tokens
     )
 }
 
@@ -154,6 +189,9 @@ mod tests {
             tokens: 1000,
             prompt_tokens: 900,
             completion_tokens: 100,
+            truncated_turns: 2,
+            reasoning_tokens: 60,
+            cached_tokens: 450,
             latency_ms: 10,
             retries: 0,
         }
@@ -174,9 +212,12 @@ mod tests {
         assert!(c.success.lo < 0.5 && c.success.hi > 0.5);
         assert_eq!((c.collision_rate, c.timeout_rate), (0.25, 0.25));
         assert_eq!(c.parse_error_rate, 5.0 / 40.0);
+        assert_eq!(c.truncated_rate, 8.0 / 40.0, "truncation is its own rate");
+        assert_eq!((s.prompt_tokens, s.cached_tokens, s.completion_tokens, s.reasoning_tokens), (3600, 1800, 400, 240));
         assert_eq!(c.tokens_per_episode, 1000.0);
         assert!((c.mean_reward - 0.2).abs() < 1e-12);
         let table = render(&s);
+        assert!(table.contains("tokens: 3600 prompt (1800 cached, 50%), 400 completion (240 reasoning)"), "{table}");
         assert!(table.contains("| pedestrian_feint | 2 | 4 | 0.50 ["), "{table}");
         // Deterministic: the same episodes give the same summary.
         let again = summarize(

@@ -59,6 +59,16 @@ pub struct TurnRecord {
     /// parse error).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub reply_capped: bool,
+    /// The reply ended with `finish_reason: "length"`: cut off by the
+    /// completion-token limit (its parse errors are not counted as such).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub truncated: bool,
+    /// Reasoning tokens of this turn ([`crate::llm::Usage::reasoning`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub reasoning_tokens: u64,
+    /// Prompt tokens served from the provider's cache ([`crate::llm::Usage::cached`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub cached_tokens: u64,
     /// Wall time of the successful request (ms).
     pub latency_ms: u64,
     /// Requests made for this turn (1 = no retry).
@@ -96,6 +106,15 @@ pub struct RolloutRecord {
     pub tokens: u64,
     pub prompt_tokens: u64,
     pub completion_tokens: u64,
+    /// Turns cut off by the completion-token limit (`finish_reason: "length"`).
+    #[serde(default)]
+    pub truncated_turns: u32,
+    /// Reasoning tokens (part of the completion tokens).
+    #[serde(default)]
+    pub reasoning_tokens: u64,
+    /// Prompt tokens served from the provider's prompt cache.
+    #[serde(default)]
+    pub cached_tokens: u64,
     /// Sum of the successful requests' latencies (ms).
     pub latency_ms: u64,
     /// Failed requests retried during this episode.
@@ -138,6 +157,12 @@ pub struct EpisodeScalars {
     #[serde(default)]
     pub completion_tokens: u64,
     #[serde(default)]
+    pub truncated_turns: u32,
+    #[serde(default)]
+    pub reasoning_tokens: u64,
+    #[serde(default)]
+    pub cached_tokens: u64,
+    #[serde(default)]
     pub latency_ms: u64,
     #[serde(default)]
     pub retries: u32,
@@ -170,6 +195,9 @@ impl From<&RolloutRecord> for EpisodeScalars {
             tokens: r.tokens,
             prompt_tokens: r.prompt_tokens,
             completion_tokens: r.completion_tokens,
+            truncated_turns: r.truncated_turns,
+            reasoning_tokens: r.reasoning_tokens,
+            cached_tokens: r.cached_tokens,
             latency_ms: r.latency_ms,
             retries: r.retries,
         }
@@ -197,4 +225,8 @@ impl InfraErrorRecord {
     pub fn key(&self) -> EpisodeKey {
         EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
     }
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }

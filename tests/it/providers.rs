@@ -591,3 +591,105 @@ fn a_bad_effort_for_the_profile_is_a_usage_error_before_any_request() {
     );
     assert!(seen.lock().unwrap().bodies.is_empty());
 }
+
+/// A reasoning model that spends `THINKING` tokens before its JSON answer,
+/// inside the completion limit (as OpenAI's reasoning models do): with a
+/// smaller limit it is cut off with `finish_reason: "length"` and no
+/// content, all of its completion spent on reasoning.
+const THINKING: u64 = 2000;
+
+fn thinking_mock() -> (String, Arc<Mutex<Seen>>) {
+    start_mock(Arc::new(|body: &Value| {
+        if let Err(refusal) = openai_reasoning_rules(body) {
+            return refusal;
+        }
+        let limit = limit_of(body).unwrap_or(u64::MAX);
+        let prompt = prompt_tokens(body);
+        let usage = |completion: u64, reasoning: u64| {
+            json!({"prompt_tokens": prompt, "completion_tokens": completion, "total_tokens": prompt + completion,
+                   "prompt_tokens_details": {"cached_tokens": 0},
+                   "completion_tokens_details": {"reasoning_tokens": reasoning}})
+        };
+        let content = expert_reply(body);
+        let answer = (content.len() / 4) as u64;
+        if limit < THINKING + answer {
+            return (
+                200,
+                json!({"choices": [{"index": 0, "finish_reason": "length",
+                "message": {"role": "assistant", "content": ""}}], "usage": usage(limit, limit)}),
+            );
+        }
+        (
+            200,
+            json!({"choices": [{"index": 0, "finish_reason": "stop",
+            "message": {"role": "assistant", "content": content}}], "usage": usage(THINKING + answer, THINKING)}),
+        )
+    }))
+}
+
+fn summary_of(out: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("run/summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_thinking_model_below_its_limit_is_flagged_truncated_and_the_run_stops_with_the_remedy() {
+    let (url, _) = thinking_mock();
+    let out = scratch("provider-thinking-cut");
+    let o =
+        eval_against("openai", &url, "gpt-5", Some("OPENAI_API_KEY"), &out, &["--max-tokens", "800", "--tier", "all"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    let last = err.lines().last().unwrap();
+    assert!(last.contains("were cut off by the completion-token limit (max_completion_tokens = 800)"), "{err}");
+    assert!(last.contains("--max-tokens N") && last.contains("--allow-truncation"), "{err}");
+    // The fleet was paused long before the 18 selected episodes.
+    let lines: Vec<Value> = std::fs::read_to_string(out.join("run/rollouts.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(!lines.is_empty() && lines.len() < 10, "{} episodes", lines.len());
+    for l in &lines {
+        assert_eq!(l["truncated_turns"], l["turns_taken"], "every turn was cut off");
+        assert_eq!(l["parse_error_turns"], 0, "cut-off turns are not counted as parse errors");
+        assert_eq!(l["turns"][0]["truncated"], true);
+        assert_eq!(l["turns"][0]["reasoning_tokens"], 800);
+    }
+    // Resuming the same command stops again before playing anything.
+    let o =
+        eval_against("openai", &url, "gpt-5", Some("OPENAI_API_KEY"), &out, &["--max-tokens", "800", "--tier", "all"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let after = std::fs::read_to_string(out.join("run/rollouts.jsonl")).unwrap().lines().count();
+    assert_eq!(after, lines.len());
+}
+
+#[test]
+fn the_shipped_reasoning_limit_does_not_truncate_and_allow_truncation_scores_cut_turns() {
+    let (url, seen) = thinking_mock();
+    let out = scratch("provider-thinking-ok");
+    let o = eval_against("openai", &url, "gpt-5", Some("OPENAI_API_KEY"), &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(seen.lock().unwrap().rejected.is_empty());
+    let s = summary_of(&out);
+    assert!(s["cells"].as_array().unwrap().iter().all(|c| c["truncated_rate"] == 0.0), "{s}");
+    let turns: u64 = s["cells"].as_array().unwrap().iter().map(|c| c["episodes"].as_u64().unwrap()).sum();
+    assert!(turns > 0);
+    assert_eq!(s["reasoning_tokens"].as_u64().unwrap() % THINKING, 0, "{s}");
+    assert!(s["reasoning_tokens"].as_u64().unwrap() >= 6 * THINKING, "{s}");
+
+    let out = scratch("provider-thinking-allowed");
+    let o = eval_against(
+        "openai",
+        &url,
+        "gpt-5",
+        Some("OPENAI_API_KEY"),
+        &out,
+        &["--max-tokens", "800", "--allow-truncation"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary_of(&out);
+    for c in s["cells"].as_array().unwrap() {
+        assert_eq!(c["truncated_rate"], 1.0, "{c}");
+        assert_eq!(c["parse_error_rate"], 0.0, "{c}");
+    }
+}
