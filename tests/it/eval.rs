@@ -185,18 +185,23 @@ fn kill_9_then_resume_gives_one_line_per_episode_and_the_same_summary() {
 fn garbage_replies_are_scored_as_parse_error_driving() {
     let server = Server::start(&["--policy", "expert", "--garbage-rate", "1.0"]);
     let out = scratch("garbage");
-    ok(eval(&server.base_url(), &out, &["--scenario", "all", "--tier", "1", "-n", "5", "-c", "8"]));
+    // Some garbage replies are cut off ("length"): scored, not stopped.
+    let args = ["--scenario", "all", "--tier", "1", "-n", "5", "-c", "8", "--allow-truncation"];
+    ok(eval(&server.base_url(), &out, &args));
     let lines = lines(&out);
     assert_one_line_per_key(&lines, 15);
     for l in &lines {
-        assert_eq!(l["parse_error_turns"], l["turns_taken"]);
+        let unreadable = l["parse_error_turns"].as_u64().unwrap() + l["truncated_turns"].as_u64().unwrap();
+        assert_eq!(unreadable, l["turns_taken"].as_u64().unwrap(), "a turn is a parse error or truncated");
         assert_ne!(l["outcome"], "success", "braking every turn never reaches the goal");
         for t in l["turns"].as_array().unwrap() {
             assert_eq!(t["action"]["maneuver"], "stop");
         }
     }
     for c in cells(&out).as_array().unwrap() {
-        assert_eq!(c["parse_error_rate"], 1.0);
+        let rate = c["parse_error_rate"].as_f64().unwrap() + c["truncated_rate"].as_f64().unwrap();
+        assert!((rate - 1.0).abs() < 1e-12, "{c}");
+        assert!(c["truncated_rate"].as_f64().unwrap() > 0.0, "{c}");
         assert_eq!(c["missing"], 0);
     }
 }
@@ -395,6 +400,7 @@ fn odd_replies_are_tolerated_and_the_key_is_never_written() {
             "yield_standoff",
             "-n",
             "1",
+            "--allow-truncation",
             "--api-key-var",
             "NEGOTIATOR_TEST_KEY",
             "--header",
@@ -412,7 +418,8 @@ fn odd_replies_are_tolerated_and_the_key_is_never_written() {
     assert_eq!(turns[0]["reply"], Value::Null);
     assert!(!turns[0]["parse_errors"].as_array().unwrap().is_empty());
     assert_eq!(turns[1]["finish_reason"], "length");
-    assert!(!turns[1]["parse_errors"].as_array().unwrap().is_empty(), "cut-off JSON is a parse error");
+    assert!(!turns[1]["parse_errors"].as_array().unwrap().is_empty(), "cut-off JSON does not parse");
+    assert_eq!(turns[1]["truncated"], true, "and is counted as truncated");
     assert_eq!(turns[2]["reasoning"], "watch it");
     assert!(turns[2]["parse_errors"].as_array().unwrap().is_empty());
     assert_eq!(turns[2]["action"]["maneuver"], "stop");
