@@ -693,3 +693,36 @@ fn the_shipped_reasoning_limit_does_not_truncate_and_allow_truncation_scores_cut
         assert_eq!(c["parse_error_rate"], 0.0, "{c}");
     }
 }
+
+/// Provider prompt caches match on a byte prefix: with the full history,
+/// each request of an episode must start with the previous one's bytes up to
+/// its last message, and end with the same parameters (no timestamp, no
+/// reordered key).
+#[test]
+fn each_request_extends_the_previous_one_byte_for_byte() {
+    let p = &PROVIDERS[0];
+    let (url, seen) = provider_mock(p);
+    let out = scratch("provider-prefix");
+    let o = eval_against(p.endpoint, &url, p.model, p.key_var, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Requests of one episode share their first scene; episodes interleave.
+    let mut episodes: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+    for b in &seen.lock().unwrap().bodies {
+        let v: Value = serde_json::from_slice(b).unwrap();
+        let first_scene = v["messages"][1]["content"].as_str().unwrap().to_string();
+        episodes.entry(first_scene).or_default().push(String::from_utf8(b.clone()).unwrap());
+    }
+    assert_eq!(episodes.len(), 6);
+    let mut compared = 0;
+    for bodies in episodes.values_mut() {
+        bodies.sort_by_key(String::len);
+        for pair in bodies.windows(2) {
+            let (a, b) = (&pair[0], &pair[1]);
+            let end = a.rfind("}]").expect("a messages array") + 1;
+            assert!(b.starts_with(&a[..end]), "prefix changed:\n{a}\n{b}");
+            assert_eq!(&a[end + 1..], &b[b.rfind("}]").unwrap() + 2..], "parameters changed");
+            compared += 1;
+        }
+    }
+    assert!(compared >= 10, "{compared} consecutive turns compared");
+}
