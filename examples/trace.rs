@@ -6,16 +6,35 @@ fn main() {
     let a: Vec<String> = std::env::args().collect();
     let kind: ScenarioKind = a[1].parse().unwrap();
     let tier: Tier = a[2].parse().unwrap();
-    let policy: PolicyKind = a[3].parse().unwrap();
+    // A policy name, or a blind schedule "proceed:0.5:3,yield:0:2,stop:1" (the last repeats).
+    let schedule: Option<Vec<negotiator::action::Action>> = a[3].contains(':').then(|| {
+        a[3].split(',')
+            .flat_map(|part| {
+                let f: Vec<&str> = part.split(':').collect();
+                let m = negotiator::action::Maneuver::from_loose(f[0]).unwrap();
+                let n: usize = f.get(2).map_or(1, |x| x.parse().unwrap());
+                std::iter::repeat_n(negotiator::action::Action::new(m, f[1].parse().unwrap()), n)
+            })
+            .collect()
+    });
+    let policy: PolicyKind = if schedule.is_some() { PolicyKind::Expert } else { a[3].parse().unwrap() };
     let seed: u64 = a[4].parse().unwrap();
     let set = ScenarioSet::default();
-    let mut ep = Episode::new(set.get(kind), tier, seed);
+    let mut ep = match a.get(5) {
+        Some(d) => {
+            Episode::with_disposition(set.get(kind), tier, seed, serde_json::from_str(&format!("\"{d}\"")).unwrap())
+        }
+        None => Episode::new(set.get(kind), tier, seed),
+    };
     let mut p = policy.build();
     p.reset(policy_seed(ep.spec()));
     println!("disposition {}", ep.disposition());
     while !ep.is_done() {
         let o = *ep.observation();
-        let act = p.act(&o);
+        let act = match &schedule {
+            Some(s) => s[(o.turn as usize - 1).min(s.len() - 1)],
+            None => p.act(&o),
+        };
         let (ed, others) = match o.scene {
             Scene::YieldStandoff { ego_to_conflict_m, other } => {
                 (ego_to_conflict_m, format!("o {:6.1} {:5.1}", other.now.position_m, other.now.velocity_mps))
@@ -47,5 +66,5 @@ fn main() {
         ep.step(act);
     }
     let r = ep.finish();
-    println!("{:?} reward {:.2} dc {:.2}", r.outcome, r.grades.reward, r.grades.decision_correctness);
+    println!("{:?} reward {:.2} dc {:.2} {:?}", r.outcome, r.grades.reward, r.grades.decision_correctness, r.timing);
 }

@@ -49,6 +49,10 @@ pub struct CellSummary {
     pub timeout: Interval,
     pub reward: Interval,
     pub decision_correctness: Interval,
+    /// Share of the committed episodes that committed before the evidence
+    /// turn, and the mean turns from evidence to commitment otherwise.
+    pub guess_rate: Interval,
+    pub evidence_lag: Interval,
     pub spans: [RewardSpan; 3],
 }
 
@@ -58,6 +62,8 @@ impl CellSummary {
         let count = |o: Outcome| records.iter().filter(|r| r.outcome == o).count();
         let rewards: Vec<f64> = records.iter().map(|r| r.grades.reward).collect();
         let correctness: Vec<f64> = records.iter().map(|r| r.grades.decision_correctness).collect();
+        let guesses: Vec<bool> = records.iter().filter_map(|r| r.timing.guessed()).collect();
+        let lags: Vec<f64> = records.iter().filter_map(|r| r.timing.lag()).map(f64::from).collect();
         let mut spans = [RewardSpan::default(); 3];
         for r in records {
             spans[outcome_index(r.outcome)].add(r.grades.reward);
@@ -70,6 +76,8 @@ impl CellSummary {
             timeout: normal_ci_proportion(count(Outcome::Timeout), n),
             reward: clamp(normal_ci_mean(&rewards), -1.0, 1.0),
             decision_correctness: clamp(normal_ci_mean(&correctness), 0.0, 1.0),
+            guess_rate: normal_ci_proportion(guesses.iter().filter(|g| **g).count(), guesses.len()),
+            evidence_lag: clamp(normal_ci_mean(&lags), 0.0, f64::INFINITY),
             spans,
         }
     }
@@ -95,6 +103,8 @@ pub(crate) fn table(cells: &[CellSummary]) -> Table {
             figure("timeout", "timeout"),
             figure("reward", "reward"),
             figure("decision correctness", "decision_correctness"),
+            figure("guess rate", "guess_rate"),
+            figure("lag (turns)", "evidence_lag"),
         ],
     );
     for c in cells {
@@ -108,6 +118,8 @@ pub(crate) fn table(cells: &[CellSummary]) -> Table {
             export::Cell::Interval(c.timeout),
             export::Cell::Interval(c.reward),
             export::Cell::Interval(c.decision_correctness),
+            export::Cell::Interval(c.guess_rate),
+            export::Cell::Interval(c.evidence_lag),
         ]);
     }
     t

@@ -7,10 +7,7 @@ use crate::action::Action;
 use crate::grading::{self, Diagnostics, Grades};
 use crate::observation::{EgoView, Observation};
 use crate::rng::{EpisodeRng, Stream};
-use crate::scenario::contested_merge::MergeWorld;
-use crate::scenario::pedestrian_feint::PedestrianWorld;
-use crate::scenario::world::{PlanPoint, World};
-use crate::scenario::yield_standoff::YieldWorld;
+use crate::scenario::world::{EgoApproach, PlanPoint, World};
 use crate::scenario::{Disposition, ScenarioConfig, ScenarioKind, Tier, episode_key};
 use crate::sim::{Body, DECISION_INTERVAL, DT, EGO_MAX_ACCEL, EGO_MAX_BRAKE};
 use serde::{Deserialize, Serialize};
@@ -67,6 +64,60 @@ pub struct DecisionRecord {
     pub after_resolution: bool,
 }
 
+/// Who entered the conflict first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Party {
+    Ego,
+    Other,
+}
+
+/// The go / give-way choice the ego made, read from its motion (see
+/// [`grading::decision_correctness`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Choice {
+    /// The ego passed its point of no return (it could no longer stop short
+    /// of the conflict at full braking) before the other entered it.
+    Go,
+    /// The other entered the conflict first while the ego could still stop.
+    GiveWay,
+}
+
+/// When the information arrived and when the ego committed (SPEC
+/// sections 3-4). Turns are 1-based decision indices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub struct EvidenceTiming {
+    /// The first turn whose observation differs from a replay of the same
+    /// seed and actions under the other disposition (None: never, within
+    /// the episode).
+    pub evidence_turn: Option<u32>,
+    /// The decision that settled who passes the conflict first: the one in
+    /// force when the ego passed its point of no return (a go), or when the
+    /// other entered the conflict while the ego could still stop (a give
+    /// way). None when the episode ended with neither.
+    pub commitment_turn: Option<u32>,
+    pub choice: Option<Choice>,
+    /// Who entered the conflict first (None: nobody did).
+    pub first_in: Option<Party>,
+}
+
+impl EvidenceTiming {
+    /// A commitment before the evidence turn (or with no evidence at all):
+    /// whatever the outcome, the ego could not have known.
+    pub fn guessed(&self) -> Option<bool> {
+        let c = self.commitment_turn?;
+        Some(self.evidence_turn.is_none_or(|e| c < e))
+    }
+
+    /// Turns from the evidence to the commitment (None for a guess or no
+    /// commitment).
+    pub fn lag(&self) -> Option<u32> {
+        let (c, e) = (self.commitment_turn?, self.evidence_turn?);
+        c.checked_sub(e)
+    }
+}
+
 /// Plan-view positions at one decision (ego first).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrajectoryPoint {
@@ -87,7 +138,7 @@ struct Tracker {
     peak_decel: f64,
     peak_jerk: f64,
     comfortable_steps: u32,
-    steps: u32,
+    accel_steps: u32,
     interval_accel_sum: f64,
     last_interval_accel: Option<f64>,
     jerk_ok_intervals: u32,
@@ -99,6 +150,10 @@ pub struct Episode {
     spec: EpisodeSpec,
     disposition: Disposition,
     world: Box<dyn World + Send>,
+    /// The same seed under the other disposition, driven by the same ego,
+    /// until its observation first differs (the evidence turn).
+    twin: Option<Box<dyn World + Send>>,
+    timing: EvidenceTiming,
     ego: Body,
     start_s: f64,
     goal_s: f64,
@@ -126,40 +181,58 @@ impl Episode {
     pub fn with_disposition(config: &ScenarioConfig, tier: Tier, seed: u64, disposition: Disposition) -> Episode {
         let spec = EpisodeSpec { scenario: config.kind(), tier, seed };
         let key = episode_key(spec.scenario, tier, seed);
-        let mut geometry = EpisodeRng::new(&key, Stream::Geometry);
-        let world: Box<dyn World + Send> = match config {
-            ScenarioConfig::YieldStandoff(p) => Box::new(YieldWorld::new(p, tier, disposition, &mut geometry)),
-            ScenarioConfig::PedestrianFeint(p) => Box::new(PedestrianWorld::new(p, tier, disposition, &mut geometry)),
-            ScenarioConfig::ContestedMerge(p) => Box::new(MergeWorld::new(
-                p,
-                tier,
-                disposition,
-                &mut geometry,
-                EpisodeRng::new(&key, Stream::ObservationNoise),
-            )),
-        };
+        let [a, b] = spec.scenario.dispositions();
+        let other = if disposition == a { b } else { a };
+        let mut world = config.build_world(tier, disposition, &key);
+        let mut twin = config.build_world(tier, other, &key);
         let ego = world.ego_start();
         let common = config.common();
-        let mut episode = Episode {
+        let goal_s = world.goal_s();
+        let view = EgoView {
+            speed_mps: ego.v,
+            accel_mps2: ego.a,
+            to_goal_m: goal_s - ego.s,
+            speed_limit_mps: common.speed_limit_mps,
+        };
+        let observation = Observation {
+            time_s: 0.0,
+            turn: 1,
+            turn_budget: common.turn_budget.get(tier),
+            ego: view,
+            scene: world.observe(&ego),
+            last_action: None,
+        };
+        // The twin's first observation is taken too, so that its history
+        // advances in step with the real world's.
+        let twin_scene = twin.observe(&ego);
+        let mut timing = EvidenceTiming::default();
+        let twin_observation = Observation { scene: twin_scene, ..observation };
+        let twin = if twin_observation.rounded() == observation.rounded() {
+            Some(twin)
+        } else {
+            timing.evidence_turn = Some(1);
+            None
+        };
+        Episode {
             spec,
             disposition,
-            goal_s: world.goal_s(),
             world,
+            twin,
+            timing,
             ego,
             start_s: ego.s,
+            goal_s,
             speed_limit: common.speed_limit_mps,
-            turn_budget: common.turn_budget,
+            turn_budget: common.turn_budget.get(tier),
             turn: 0,
             step: 0,
             held: None,
             outcome: None,
-            observation: placeholder_observation(spec.scenario),
-            decisions: Vec::with_capacity(common.turn_budget as usize),
+            observation,
+            decisions: Vec::with_capacity(common.turn_budget.get(tier) as usize),
             trajectory: None,
             tracker: Tracker { min_gap_m: f64::INFINITY, ..Tracker::default() },
-        };
-        episode.observe();
-        episode
+        }
     }
 
     /// Keep plan-view positions at every decision (for trajectory plots).
@@ -198,10 +271,21 @@ impl Episode {
         self.world.revealed()
     }
 
+    /// Stop tracking the other disposition's twin: the evidence turn stays
+    /// unknown, and stepping costs half as much (for searches that only need
+    /// outcomes).
+    pub fn skip_evidence(&mut self) {
+        self.twin = None;
+    }
+
+    /// Privileged: evidence and commitment so far.
+    pub fn timing(&self) -> EvidenceTiming {
+        self.timing
+    }
+
     fn observe(&mut self) {
         let scene = self.world.observe(&self.ego);
         self.observation = Observation {
-            scenario: self.spec.scenario,
             time_s: self.time(),
             turn: self.turn + 1,
             turn_budget: self.turn_budget,
@@ -214,6 +298,19 @@ impl Episode {
             scene,
             last_action: self.held,
         };
+        if let Some(twin) = self.twin.as_mut() {
+            let twin_obs = Observation { scene: twin.observe(&self.ego), ..self.observation };
+            if twin_obs.rounded() != self.observation.rounded() {
+                self.reveal_now();
+            }
+        }
+    }
+
+    /// The observation about to be shown differs from the other
+    /// disposition's: this turn is the evidence turn.
+    fn reveal_now(&mut self) {
+        self.timing.evidence_turn = Some(self.turn + 1);
+        self.twin = None;
     }
 
     fn time(&self) -> f64 {
@@ -236,20 +333,26 @@ impl Episode {
             turn: self.turn + 1,
             time_s: self.time(),
             action,
-            after_resolution: self.world.resolved(&self.ego),
+            after_resolution: self.timing.first_in.is_some(),
         });
         let control = action.control();
         let prev_interval_accel = self.tracker.last_interval_accel;
         self.tracker.interval_accel_sum = 0.0;
         let mut steps_this_turn = 0;
+        let mut twin_collided = false;
         for _ in 0..DECISION_INTERVAL {
             let t = self.time();
             let a_cmd = control.acceleration(self.ego.v, self.speed_limit, DT).clamp(-EGO_MAX_BRAKE, EGO_MAX_ACCEL);
             self.ego.advance(a_cmd, DT);
-            self.world.advance(&self.ego, &action, t, DT);
+            self.world.advance(&self.ego, t, DT);
+            if let Some(twin) = self.twin.as_mut() {
+                twin.advance(&self.ego, t, DT);
+                twin_collided |= twin.contact(&self.ego).collision;
+            }
             self.step += 1;
             steps_this_turn += 1;
             self.track_step();
+            self.track_conflict();
             let contact = self.world.contact(&self.ego);
             self.tracker.min_gap_m = self.tracker.min_gap_m.min(contact.gap_m);
             if let Some(ttc) = contact.ttc_s {
@@ -282,6 +385,11 @@ impl Episode {
             self.outcome = Some(Outcome::Timeout);
         }
         if self.outcome.is_none() {
+            if twin_collided && self.twin.is_some() {
+                // Under the other disposition the same actions ended in a
+                // collision: what the ego sees next differs.
+                self.reveal_now();
+            }
             self.observe();
         }
         if let Some(traj) = self.trajectory.as_mut() {
@@ -290,10 +398,33 @@ impl Episode {
         self.outcome
     }
 
+    /// Who enters the conflict first, and the ego's point of no return.
+    fn track_conflict(&mut self) {
+        if self.timing.first_in.is_some() {
+            return;
+        }
+        let turn = self.turn + 1;
+        let approach = EgoApproach::new(self.world.ego_to_conflict(&self.ego), &self.ego);
+        let (to_conflict, beyond_stopping) = (approach.to_conflict, approach.beyond_stopping());
+        if beyond_stopping && self.timing.choice.is_none() {
+            self.timing.choice = Some(Choice::Go);
+            self.timing.commitment_turn = Some(turn);
+        }
+        if self.world.other_entered() {
+            self.timing.first_in = Some(Party::Other);
+            if self.timing.choice.is_none() {
+                self.timing.choice = Some(Choice::GiveWay);
+                self.timing.commitment_turn = Some(turn);
+            }
+        } else if to_conflict <= 0.0 {
+            self.timing.first_in = Some(Party::Ego);
+        }
+    }
+
     fn track_step(&mut self) {
         let a = self.ego.a;
         let tr = &mut self.tracker;
-        tr.steps += 1;
+        tr.accel_steps += 1;
         tr.interval_accel_sum += a;
         tr.peak_accel = tr.peak_accel.max(a);
         tr.peak_decel = tr.peak_decel.max(-a);
@@ -321,10 +452,10 @@ impl Episode {
         let progress = ((self.ego.s - self.start_s) / span).clamp(0.0, 1.0);
         let free_flow_time_s = span / self.speed_limit;
         let efficiency = tr.time_to_goal_s.map_or(0.0, |t| (free_flow_time_s / t).min(1.0));
-        let comfort = if tr.steps == 0 {
+        let comfort = if tr.accel_steps == 0 {
             1.0
         } else {
-            let accel_ok = tr.comfortable_steps as f64 / tr.steps as f64;
+            let accel_ok = tr.comfortable_steps as f64 / tr.accel_steps as f64;
             let jerk_ok = if tr.intervals == 0 { 1.0 } else { tr.jerk_ok_intervals as f64 / tr.intervals as f64 };
             0.5 * (accel_ok + jerk_ok)
         };
@@ -346,7 +477,7 @@ impl Episode {
         };
         let grades = Grades {
             reward: grading::compute_episode_reward(outcome, &diagnostics),
-            decision_correctness: grading::decision_correctness(self.disposition, &self.decisions),
+            decision_correctness: grading::decision_correctness(self.disposition, outcome, self.timing.choice),
             diagnostics,
         };
         EpisodeRecord {
@@ -354,6 +485,7 @@ impl Episode {
             disposition: self.disposition,
             outcome,
             grades,
+            timing: self.timing,
             decisions: self.decisions,
             trajectory: self.trajectory,
         }
@@ -373,23 +505,6 @@ fn sanitize(a: Action) -> Action {
     }
 }
 
-fn placeholder_observation(scenario: ScenarioKind) -> Observation {
-    use crate::observation::{Sample, Scene, Track};
-    let t = Track {
-        now: Sample { position_m: 0.0, velocity_mps: 0.0 },
-        past: [Sample { position_m: 0.0, velocity_mps: 0.0 }; 4],
-    };
-    Observation {
-        scenario,
-        time_s: 0.0,
-        turn: 1,
-        turn_budget: 1,
-        ego: EgoView { speed_mps: 0.0, accel_mps2: 0.0, to_goal_m: 0.0, speed_limit_mps: 0.0 },
-        scene: Scene::YieldStandoff { ego_to_conflict_m: 0.0, other: t },
-        last_action: None,
-    }
-}
-
 /// A graded episode with its privileged facts.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EpisodeRecord {
@@ -397,6 +512,7 @@ pub struct EpisodeRecord {
     pub disposition: Disposition,
     pub outcome: Outcome,
     pub grades: Grades,
+    pub timing: EvidenceTiming,
     pub decisions: Vec<DecisionRecord>,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub trajectory: Option<Vec<TrajectoryPoint>>,

@@ -1,7 +1,7 @@
 //! Graders. They read privileged state (the disposition, the trajectory) and
 //! the actions taken; never the reasoning text.
 
-use crate::episode::{DecisionRecord, Outcome};
+use crate::episode::{Choice, Outcome};
 use crate::scenario::Disposition;
 use serde::{Deserialize, Serialize};
 
@@ -11,9 +11,6 @@ pub const COMFORT_MAX_ACCEL: f64 = 2.40;
 pub const COMFORT_MAX_JERK: f64 = 4.13;
 /// A step braking harder than this starts a hard-brake event (m/s^2).
 pub const HARD_BRAKE: f64 = -4.05;
-/// Decisions in the correctness window: the agent's last choices before the
-/// go / give-way question is settled.
-pub const CORRECTNESS_WINDOW: usize = 2;
 
 /// Per-episode diagnostics (SPEC section 4).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -65,32 +62,26 @@ pub fn compute_episode_reward(outcome: Outcome, d: &Diagnostics) -> f64 {
     }
 }
 
-/// Agreement between the agent's final go / give-way choices and what the
-/// hidden disposition requires, in [0, 1].
+/// Whether the ego's go / give-way choice was the one the hidden
+/// disposition requires: 1 or 0 per episode.
 ///
-/// The window is the last `CORRECTNESS_WINDOW` decisions taken before the
-/// question was settled (the first moment either road user entered the
-/// conflict zone); if it never was, the episode's last decisions. A decision
-/// is "go" when its maneuver is `proceed` and "give way" otherwise (`yield`,
-/// `stop`, `nudge_forward`). Committed cars and crossers require give way;
-/// yielders, feinters and cars that make room require go. The score is the
-/// fraction of the window that matches.
-pub fn decision_correctness(disposition: Disposition, decisions: &[DecisionRecord]) -> f64 {
-    let unresolved = decisions.iter().take_while(|d| !d.after_resolution).count();
-    let window_end = if unresolved == 0 { decisions.len() } else { unresolved };
-    let window = &decisions[window_end.saturating_sub(CORRECTNESS_WINDOW)..window_end];
-    if window.is_empty() {
-        return 0.0;
-    }
-    let want_go = disposition.ego_should_go();
-    let matches = window.iter().filter(|d| d.action.maneuver.is_go() == want_go).count();
-    matches as f64 / window.len() as f64
+/// The choice is read from what the ego did, never from the maneuver label
+/// it gave (see [`crate::episode::Choice`]): *go* when the ego passed its
+/// point of no return (it could no longer stop short of the conflict at
+/// full braking, 8 m/s^2) before the other road user entered the conflict;
+/// *give way* when the other entered first while the ego could still stop.
+/// Committed cars and crossers require give way; yielders, waiting
+/// pedestrians and cars making room require go. A collision scores 0
+/// whatever was chosen, and so does an episode in which neither happened
+/// (the ego never made the choice).
+pub fn decision_correctness(disposition: Disposition, outcome: Outcome, choice: Option<Choice>) -> f64 {
+    let want = if disposition.ego_should_go() { Choice::Go } else { Choice::GiveWay };
+    if outcome != Outcome::Collision && choice == Some(want) { 1.0 } else { 0.0 }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::action::{Action, Maneuver};
 
     fn diag(progress: f64, efficiency: f64, comfort: f64) -> Diagnostics {
         Diagnostics {
@@ -123,27 +114,15 @@ mod tests {
         assert_eq!(compute_episode_reward(Outcome::Success, &diag(1.0, 1.0, 1.0)), 1.0);
     }
 
-    fn decision(turn: u32, m: Maneuver, after: bool) -> DecisionRecord {
-        DecisionRecord { turn, time_s: 0.5 * turn as f64, action: Action::new(m, 0.0), after_resolution: after }
-    }
-
     #[test]
-    fn correctness_reads_the_last_choices_before_resolution() {
-        use Maneuver::*;
-        let ds = vec![
-            decision(1, Proceed, false),
-            decision(2, Yield, false),
-            decision(3, Stop, false),
-            decision(4, Proceed, true),
-        ];
-        // Gave way in the window: right for a committed car, wrong for a yielder.
-        assert_eq!(decision_correctness(Disposition::Committed, &ds), 1.0);
-        assert_eq!(decision_correctness(Disposition::Yielder, &ds), 0.0);
-        let mixed = vec![decision(1, Yield, false), decision(2, Proceed, false), decision(3, Proceed, true)];
-        assert_eq!(decision_correctness(Disposition::Yielder, &mixed), 0.5);
-        // Never resolved: the last decisions count.
-        let stalled = vec![decision(1, Proceed, false), decision(2, NudgeForward, false), decision(3, Stop, false)];
-        assert_eq!(decision_correctness(Disposition::Feinter, &stalled), 0.0);
-        assert_eq!(decision_correctness(Disposition::Crosser, &stalled), 1.0);
+    fn correctness_reads_the_choice_made_and_never_credits_a_collision() {
+        use Choice::*;
+        assert_eq!(decision_correctness(Disposition::Committed, Outcome::Timeout, Some(GiveWay)), 1.0);
+        assert_eq!(decision_correctness(Disposition::Committed, Outcome::Success, Some(Go)), 0.0);
+        assert_eq!(decision_correctness(Disposition::Yielder, Outcome::Success, Some(Go)), 1.0);
+        assert_eq!(decision_correctness(Disposition::Yielder, Outcome::Collision, Some(Go)), 0.0);
+        assert_eq!(decision_correctness(Disposition::Committed, Outcome::Collision, Some(GiveWay)), 0.0);
+        assert_eq!(decision_correctness(Disposition::Feinter, Outcome::Timeout, None), 0.0);
+        assert_eq!(decision_correctness(Disposition::Crosser, Outcome::Timeout, None), 0.0);
     }
 }

@@ -17,6 +17,7 @@
 //! - [`rundir`]: the run directory's schema (run.json, the JSON-lines
 //!   records and their one reader), written by `eval`, read by `report`;
 //! - [`baselines`]: the reference grid of the scripted policies;
+//! - [`adversary`]: the search for a blind policy that wins anyway;
 //! - [`validate`]: the invariants;
 //! - [`export`]: the table system: typed cells, columns defined once, one
 //!   exporter per format (aligned text, Markdown, CSV, JSON, HTML);
@@ -29,6 +30,7 @@
 //! - [`cli`]: one file per subcommand.
 
 pub mod action;
+pub mod adversary;
 pub mod atomic;
 pub mod baselines;
 pub mod cli;

@@ -2,8 +2,9 @@
 //! its inputs so that tests can inject the fault it guards against and see
 //! it fail.
 
+use crate::adversary::{self, Score, SearchSpec, TRAIN_SEED_BASE};
 use crate::baselines::{Cell, CellSummary, GridSpec, run_grid};
-use crate::episode::{Episode, Outcome};
+use crate::episode::{Episode, EvidenceTiming, Outcome};
 use crate::observation::{Observation, parse_scene, render_scene};
 use crate::policy::{Expert, Policy, PolicyKind};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -17,6 +18,7 @@ pub const BITE_MARGIN: f64 = 0.30;
 pub const TIER1_CUE_FOLLOWER_WITHIN: f64 = 0.20;
 pub const EXPERT_CORRECTNESS: f64 = 0.90;
 pub const CONSTANT_CORRECTNESS: f64 = 0.60;
+pub const FOLLOWS_EVIDENCE: f64 = 0.95;
 
 /// The outcome of one invariant.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -25,11 +27,29 @@ pub struct Check {
     pub pass: bool,
     /// The deciding figure, for the one-line report.
     pub figure: String,
+    /// Whether a failure fails `validate`. An invariant the built-in
+    /// scenarios are known not to meet yet is reported as OPEN instead
+    /// (`validate --strict` makes every check gating).
+    pub gating: bool,
 }
 
 impl Check {
+    fn new(name: &'static str, pass: bool, figure: String) -> Check {
+        Check { name, pass, figure, gating: true }
+    }
+
     pub fn line(&self) -> String {
-        format!("{:<5} {:<22} {}", if self.pass { "PASS" } else { "FAIL" }, self.name, self.figure)
+        let status = match (self.pass, self.gating) {
+            (true, _) => "PASS",
+            (false, true) => "FAIL",
+            (false, false) => "OPEN",
+        };
+        format!("{status:<5} {:<26} {}", self.name, self.figure)
+    }
+
+    /// A failure that fails the run.
+    pub fn failed(&self) -> bool {
+        !self.pass && self.gating
     }
 }
 
@@ -62,11 +82,11 @@ pub fn check_solvable(cells: &[CellSummary]) -> Check {
                 Some((slack, format!("expert success {:.3} on {} (bar {bar:.2})", e.success.estimate, label(s, t))));
         }
     }
-    Check {
-        name: "solvable",
-        pass: pass && worst.is_some(),
-        figure: worst.map_or("no expert cells".into(), |w| format!("lowest: {}", w.1)),
-    }
+    Check::new(
+        "solvable",
+        pass && worst.is_some(),
+        worst.map_or("no expert cells".into(), |w| format!("lowest: {}", w.1)),
+    )
 }
 
 /// On every cell the expert beats every state-ignorant policy by >= 0.30.
@@ -83,11 +103,11 @@ pub fn check_anti_gaming(cells: &[CellSummary]) -> Check {
         }
     }
     let pass = worst.as_ref().is_some_and(|(m, _)| *m >= ANTI_GAMING_MARGIN);
-    Check {
-        name: "anti-gaming",
+    Check::new(
+        "anti-gaming",
         pass,
-        figure: worst.map_or("no cells".into(), |w| format!("smallest margin: {} (bar {ANTI_GAMING_MARGIN:.2})", w.1)),
-    }
+        worst.map_or("no cells".into(), |w| format!("smallest margin: {} (bar {ANTI_GAMING_MARGIN:.2})", w.1)),
+    )
 }
 
 /// On tier 3 (bluff / pause-then-dart / merge bluff) the cue follower is
@@ -110,14 +130,14 @@ pub fn check_tiers_bite(cells: &[CellSummary]) -> Check {
         pass &= ok;
         parts.push(format!("{} {gap:+.2}", label(s, t)));
     }
-    Check {
-        name: "tiers bite",
-        pass: pass && seen,
-        figure: format!(
+    Check::new(
+        "tiers bite",
+        pass && seen,
+        format!(
             "expert - cue_follower: {} (tier 3 >= {BITE_MARGIN:.2}, tier 1 <= {TIER1_CUE_FOLLOWER_WITHIN:.2})",
             parts.join(", ")
         ),
-    }
+    )
 }
 
 /// Every collision < every timeout < every success, over all episodes.
@@ -137,18 +157,19 @@ pub fn check_reward_ordering(cells: &[CellSummary]) -> Check {
     // Compare only outcomes that occurred.
     let collision_below = c_n == 0 || (t_n > 0 && c_max < t_min) || (t_n == 0 && (s_n == 0 || c_max < s_min));
     let timeout_below = t_n == 0 || s_n == 0 || t_max < s_min;
-    Check {
-        name: "reward ordering",
-        pass: collision_below && timeout_below && c_n + t_n + s_n > 0,
-        figure: format!(
+    Check::new(
+        "reward ordering",
+        collision_below && timeout_below && c_n + t_n + s_n > 0,
+        format!(
             "collision max {c_max:.3} < timeout [{t_min:.3}, {t_max:.3}] < success min {s_min:.3} over {} episodes",
             c_n + t_n + s_n
         ),
-    }
+    )
 }
 
 /// Expert decision correctness >= 0.90 and every constant policy <= 0.60,
-/// on every cell.
+/// on every cell (the searched blind policies are held to the same bar by
+/// [`check_blind_play_loses`]).
 pub fn check_correctness(cells: &[CellSummary]) -> Check {
     let mut expert_min = f64::INFINITY;
     let mut constant_max = f64::NEG_INFINITY;
@@ -165,13 +186,13 @@ pub fn check_correctness(cells: &[CellSummary]) -> Check {
             where_c = format!("{} on {}", c.cell.policy, label(c.cell.scenario, c.cell.tier));
         }
     }
-    Check {
-        name: "correctness honest",
-        pass: expert_min >= EXPERT_CORRECTNESS && constant_max <= CONSTANT_CORRECTNESS,
-        figure: format!(
+    Check::new(
+        "correctness honest",
+        expert_min >= EXPERT_CORRECTNESS && constant_max <= CONSTANT_CORRECTNESS,
+        format!(
             "expert min {expert_min:.3} ({where_e}, bar {EXPERT_CORRECTNESS:.2}); constant max {constant_max:.3} ({where_c}, bar {CONSTANT_CORRECTNESS:.2})"
         ),
-    }
+    )
 }
 
 /// How the hidden-disposition check turns an episode into the text a model
@@ -190,6 +211,7 @@ pub fn check_hidden_disposition(
     text: SceneText,
 ) -> (Check, Vec<Observation>) {
     let mut compared = 0usize;
+    let mut differing = 0usize;
     let mut failures = Vec::new();
     let mut observations = Vec::new();
     for &s in scenarios {
@@ -205,8 +227,11 @@ pub fn check_hidden_disposition(
                     let before_reveal = !a.revealed() && !b.revealed();
                     if first || before_reveal {
                         compared += 1;
-                        if text(&a) != text(&b) && failures.len() < 3 {
-                            failures.push(format!("{}/t{t} seed {seed} turn {}", s, a.observation().turn));
+                        if text(&a) != text(&b) {
+                            differing += 1;
+                            if failures.len() < 3 {
+                                failures.push(format!("{}/t{t} seed {seed} turn {}", s, a.observation().turn));
+                            }
                         }
                     }
                     observations.push(*a.observation());
@@ -225,9 +250,9 @@ pub fn check_hidden_disposition(
     let figure = if pass {
         format!("{compared} pre-reveal observations byte-identical under both dispositions")
     } else {
-        format!("{} differ, e.g. {}", failures.len(), failures.join("; "))
+        format!("{differing} of {compared} differ, e.g. {}", failures.join("; "))
     };
-    (Check { name: "hidden disposition", pass, figure }, observations)
+    (Check::new("hidden disposition", pass, figure), observations)
 }
 
 /// Parsing the rendered text gives back the observation, to the printed
@@ -248,23 +273,133 @@ pub fn check_round_trip(observations: &[Observation], render: &dyn Fn(&Observati
         if !ok {
             bad += 1;
             if example.is_empty() {
-                example = format!("{} turn {}", o.scenario, o.turn);
+                example = format!("{} turn {}", o.scenario(), o.turn);
             }
         }
     }
-    Check {
-        name: "text carries the state",
-        pass: bad == 0 && !observations.is_empty(),
-        figure: if bad == 0 {
+    Check::new(
+        "text carries the state",
+        bad == 0 && !observations.is_empty(),
+        if bad == 0 {
             format!("{} observations round-trip through the scene text", observations.len())
         } else {
             format!("{bad} of {} do not round-trip, e.g. {example}", observations.len())
         },
-    }
+    )
 }
 
-/// Run every invariant at `n` seeds per cell.
-pub fn run(set: &ScenarioSet, n: usize, seed_base: u64) -> Vec<Check> {
+/// What the blind-policy search found on one cell, measured on held-out
+/// seeds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BlindCell {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    /// The best blind policy by training success, as text.
+    pub best: String,
+    pub train: Score,
+    pub held_out: Score,
+    /// The most correct blind policy, as text, and its held-out score.
+    pub best_correctness: String,
+    pub held_out_correctness: Score,
+    pub episodes_searched: usize,
+}
+
+/// Search every cell for a blind policy (the adversary's budget per cell),
+/// then measure its finding on the held-out seeds `seeds`.
+pub fn search_blind(
+    set: &ScenarioSet,
+    scenarios: &[ScenarioKind],
+    tiers: &[Tier],
+    seeds: std::ops::Range<u64>,
+    budget: usize,
+) -> Vec<BlindCell> {
+    let held: Vec<u64> = seeds.collect();
+    let mut out = Vec::new();
+    for &scenario in scenarios {
+        for &tier in tiers {
+            let config = set.get(scenario);
+            let spec = SearchSpec { budget, train_seed_base: TRAIN_SEED_BASE, search_seed: 1 };
+            let f = adversary::search(config, tier, spec);
+            out.push(BlindCell {
+                scenario,
+                tier,
+                best: f.best.to_string(),
+                train: f.train,
+                held_out: adversary::evaluate(config, tier, &f.best, &held),
+                best_correctness: f.best_correctness.to_string(),
+                held_out_correctness: adversary::evaluate(config, tier, &f.best_correctness, &held),
+                episodes_searched: f.episodes,
+            });
+        }
+    }
+    out
+}
+
+/// On every cell the expert's success exceeds the searched blind policy's
+/// held-out success by >= 0.30, and the most correct blind policy found
+/// scores <= 0.60 decision correctness on the held-out seeds.
+pub fn check_blind_play_loses(cells: &[CellSummary], blind: &[BlindCell]) -> Check {
+    let mut worst: Option<(f64, String)> = None;
+    let mut most_correct: Option<(f64, String)> = None;
+    let mut episodes = 0usize;
+    for b in blind {
+        episodes += b.episodes_searched;
+        let c = b.held_out_correctness.correctness;
+        if most_correct.as_ref().is_none_or(|(m, _)| c > *m) {
+            most_correct = Some((c, label(b.scenario, b.tier)));
+        }
+        let Some(e) = find(cells, b.scenario, b.tier, PolicyKind::Expert) else { continue };
+        let margin = e.success.estimate - b.held_out.success;
+        if worst.as_ref().is_none_or(|(w, _)| margin < *w) {
+            worst = Some((
+                margin,
+                format!(
+                    "{}: expert {:.3} - blind {:.3} = {margin:.3} ({})",
+                    label(b.scenario, b.tier),
+                    e.success.estimate,
+                    b.held_out.success,
+                    b.best
+                ),
+            ));
+        }
+    }
+    let success_ok = worst.as_ref().is_some_and(|(m, _)| *m >= ANTI_GAMING_MARGIN);
+    let correctness_ok = most_correct.as_ref().is_some_and(|(c, _)| *c <= CONSTANT_CORRECTNESS);
+    let figure = match (worst, most_correct) {
+        (Some(w), Some(c)) => format!(
+            "smallest margin {} (bar {ANTI_GAMING_MARGIN:.2}); blind correctness max {:.3} on {} (bar {CONSTANT_CORRECTNESS:.2}); {episodes} episodes searched",
+            w.1, c.0, c.1
+        ),
+        _ => "no cells searched".into(),
+    };
+    Check::new("blind play loses", success_ok && correctness_ok, figure)
+}
+
+/// The expert commits at or after the evidence turn in >= 0.95 of its
+/// committed episodes: it never needs to guess. `timings` are the expert's.
+pub fn check_follows_evidence(timings: &[EvidenceTiming]) -> Check {
+    let guesses: Vec<bool> = timings.iter().filter_map(|t| t.guessed()).collect();
+    let informed = guesses.iter().filter(|g| !**g).count();
+    let share = if guesses.is_empty() { 0.0 } else { informed as f64 / guesses.len() as f64 };
+    Check::new(
+        "decisions follow evidence",
+        !guesses.is_empty() && share >= FOLLOWS_EVIDENCE,
+        format!(
+            "expert commits at or after the evidence turn in {informed} of {} episodes ({share:.3}, bar {FOLLOWS_EVIDENCE:.2})",
+            guesses.len()
+        ),
+    )
+}
+
+/// The invariant the built-in scenarios do not meet yet: the scenario
+/// redesign that makes blind play lose on every cell is in progress. Its
+/// line is printed as OPEN and does not fail `validate` unless `strict`.
+pub const OPEN_CHECKS: [&str; 1] = ["blind play loses"];
+
+/// Run every invariant at `n` seeds per cell; the blind-policy search spends
+/// `search_budget` episodes per cell. `strict`: every check gates, the open
+/// ones included.
+pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, strict: bool) -> Vec<Check> {
     let spec = GridSpec {
         scenarios: ScenarioKind::ALL.to_vec(),
         tiers: Tier::ALL.to_vec(),
@@ -272,19 +407,33 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64) -> Vec<Check> {
         episodes: n,
         seed_base,
     };
-    let cells = run_grid(set, &spec, &|_, _| {});
+    let expert_timings = std::sync::Mutex::new(Vec::new());
+    let cells = run_grid(set, &spec, &|cell, records| {
+        if cell.policy == PolicyKind::Expert {
+            let mut t = expert_timings.lock().unwrap_or_else(|e| e.into_inner());
+            t.extend(records.iter().map(|r| r.timing));
+        }
+    });
     let seeds = seed_base..seed_base + n as u64;
     let (hidden, observations) =
-        check_hidden_disposition(set, &ScenarioKind::ALL, &Tier::ALL, seeds, &|e: &Episode| {
+        check_hidden_disposition(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone(), &|e: &Episode| {
             render_scene(e.observation())
         });
-    vec![
+    let blind = search_blind(set, &ScenarioKind::ALL, &Tier::ALL, seeds, search_budget);
+    let timings = expert_timings.into_inner().unwrap_or_else(|e| e.into_inner());
+    let mut checks = vec![
         check_solvable(&cells),
         check_anti_gaming(&cells),
+        check_blind_play_loses(&cells, &blind),
         check_tiers_bite(&cells),
         hidden,
         check_round_trip(&observations, &render_scene),
         check_reward_ordering(&cells),
         check_correctness(&cells),
-    ]
+        check_follows_evidence(&timings),
+    ];
+    for c in &mut checks {
+        c.gating = strict || !OPEN_CHECKS.contains(&c.name);
+    }
+    checks
 }

@@ -942,6 +942,7 @@ fn rollout_record(
         outcome: graded.outcome,
         reward: graded.grades.reward,
         decision_correctness: graded.grades.decision_correctness,
+        timing: graded.timing,
         diagnostics: graded.grades.diagnostics,
         turns_taken: turns.len() as u32,
         // A cut-off reply is counted as truncated, not as a parse error.

@@ -240,6 +240,7 @@ mod tests {
             outcome: Outcome::Success,
             reward: 0.9,
             decision_correctness: 1.0,
+            timing: Default::default(),
             turns_taken: 10,
             parse_error_turns: 0,
             tokens: 100,

@@ -2,7 +2,7 @@
 //! of the selection. Infrastructure errors are excluded from every score and
 //! shown as their own column.
 
-use crate::episode::Outcome;
+use crate::episode::{EvidenceTiming, Outcome};
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
@@ -27,6 +27,12 @@ pub struct CellSummary {
     pub timeout_rate: f64,
     pub mean_reward: f64,
     pub decision_correctness: f64,
+    /// Share of committed episodes that committed before the evidence turn
+    /// (a guess).
+    pub guess_rate: f64,
+    /// Mean turns from the evidence to the commitment, over the episodes
+    /// that did not guess.
+    pub evidence_lag: f64,
     /// Fraction of decision turns whose reply could not be read (cut-off
     /// replies excepted: they are `truncated_rate`).
     pub parse_error_rate: f64,
@@ -83,6 +89,8 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
             timeout_rate: rate(Outcome::Timeout),
             mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
             decision_correctness: mean(&eps.iter().map(|e| e.decision_correctness).collect::<Vec<_>>()),
+            guess_rate: guess_rate(eps.iter().map(|e| e.timing)),
+            evidence_lag: evidence_lag(eps.iter().map(|e| e.timing)),
             parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
             truncated_rate: if turns == 0 { f64::NAN } else { cut as f64 / turns as f64 },
             tokens_per_episode: mean(&eps.iter().map(|e| e.tokens as f64).collect::<Vec<_>>()),
@@ -103,6 +111,20 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
     }
 }
 
+/// Share of the episodes with a commitment that committed before the
+/// evidence turn (NaN when none committed).
+pub fn guess_rate(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
+    let guesses: Vec<f64> = timings.filter_map(|t| t.guessed()).map(|g| f64::from(u8::from(g))).collect();
+    mean(&guesses)
+}
+
+/// Mean turns from the evidence to the commitment over the episodes that
+/// committed at or after it (NaN when none did).
+pub fn evidence_lag(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
+    let lags: Vec<f64> = timings.filter_map(|t| t.lag()).map(f64::from).collect();
+    mean(&lags)
+}
+
 /// The leaderboard as a table: one row per (scenario, tier).
 pub(crate) fn table(summary: &Summary) -> Table {
     let mut t = Table::new(
@@ -117,6 +139,8 @@ pub(crate) fn table(summary: &Summary) -> Table {
             Column::new("timeout", "timeout_rate"),
             Column::new("reward", "mean_reward"),
             Column::new("correctness", "decision_correctness"),
+            Column::new("guess rate", "guess_rate"),
+            Column::new("lag (turns)", "evidence_lag"),
             Column::new("parse errors", "parse_error_rate"),
             Column::new("truncated", "truncated_rate"),
             Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
@@ -133,6 +157,8 @@ pub(crate) fn table(summary: &Summary) -> Table {
             Cell::Float(c.timeout_rate),
             Cell::Float(c.mean_reward),
             Cell::Float(c.decision_correctness),
+            Cell::Float(c.guess_rate),
+            Cell::Float(c.evidence_lag),
             Cell::Float(c.parse_error_rate),
             Cell::Float(c.truncated_rate),
             Cell::Float(c.tokens_per_episode),
@@ -184,6 +210,7 @@ mod tests {
                 Outcome::Timeout => 0.0,
             },
             decision_correctness: 0.5,
+            timing: Default::default(),
             turns_taken: 10,
             parse_error_turns,
             tokens: 1000,

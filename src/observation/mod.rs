@@ -39,14 +39,6 @@ impl Track {
     pub fn recent_accel(&self) -> f64 {
         (self.now.velocity_mps - self.past[HISTORY_LEN - 1].velocity_mps) / HISTORY_SPACING_S
     }
-    /// Mean acceleration over the whole history window.
-    pub fn window_accel(&self) -> f64 {
-        (self.now.velocity_mps - self.past[0].velocity_mps) / (HISTORY_SPACING_S * HISTORY_LEN as f64)
-    }
-    /// Slowest speed magnitude seen in the window (including now).
-    pub fn min_speed(&self) -> f64 {
-        self.past.iter().map(|s| s.velocity_mps.abs()).fold(self.now.velocity_mps.abs(), f64::min)
-    }
 }
 
 /// Scenario-specific geometry, all distances in metres.
@@ -83,7 +75,6 @@ pub struct EgoView {
 /// What a policy sees at one decision.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Observation {
-    pub scenario: ScenarioKind,
     pub time_s: f64,
     /// 1-based index of this decision.
     pub turn: u32,
@@ -95,6 +86,26 @@ pub struct Observation {
 }
 
 impl Observation {
+    /// The scenario, as the scene's layout says.
+    pub fn scenario(&self) -> ScenarioKind {
+        match self.scene {
+            Scene::YieldStandoff { .. } => ScenarioKind::YieldStandoff,
+            Scene::PedestrianFeint { .. } => ScenarioKind::PedestrianFeint,
+            Scene::ContestedMerge { .. } => ScenarioKind::ContestedMerge,
+        }
+    }
+
+    /// The ego's own distance to the conflict: the conflict zone, the
+    /// crossing line or the merge point. Part of the ego's own state (what
+    /// a policy that ignores the other road user may still read).
+    pub fn ego_to_conflict_m(&self) -> f64 {
+        match self.scene {
+            Scene::YieldStandoff { ego_to_conflict_m, .. } => ego_to_conflict_m,
+            Scene::PedestrianFeint { ego_to_crosswalk_m, .. } => ego_to_crosswalk_m,
+            Scene::ContestedMerge { ego_to_merge_m, .. } => ego_to_merge_m,
+        }
+    }
+
     pub fn turns_left(&self) -> u32 {
         self.turn_budget.saturating_sub(self.turn) + 1
     }
@@ -122,7 +133,6 @@ impl Observation {
             },
         };
         Observation {
-            scenario: self.scenario,
             time_s: r1(self.time_s),
             turn: self.turn,
             turn_budget: self.turn_budget,

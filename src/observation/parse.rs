@@ -12,7 +12,7 @@ pub enum SceneParseError {
     MissingLine(&'static str),
     #[error("scene line '{line}' should hold {expected} numbers")]
     BadNumbers { line: &'static str, expected: usize },
-    #[error("unknown scenario '{0}' in scene text")]
+    #[error("unknown scene '{0}' in scene text")]
     UnknownScenario(String),
     #[error("unreadable last action '{0}'")]
     BadLastAction(String),
@@ -56,8 +56,9 @@ fn track(text: &str, label: &'static str, history_key: &'static str) -> Result<T
 /// Parse the text produced by `render_scene`. The scenario line decides the
 /// layout; extra lines (for instance a prompt around the scene) are ignored.
 pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
-    let name = line(text, "Scenario")?.trim();
-    let scenario: ScenarioKind = name.parse().map_err(|_| SceneParseError::UnknownScenario(name.to_string()))?;
+    let name = line(text, "Scene")?.trim();
+    let scenario =
+        ScenarioKind::from_scene_name(name).ok_or_else(|| SceneParseError::UnknownScenario(name.to_string()))?;
     let time_s = numbers_of(text, "Time", 1)?[0];
     let turn = numbers_of(text, "Turn", 4)?;
     let ego_expected = if scenario == ScenarioKind::ContestedMerge { 6 } else { 5 };
@@ -93,7 +94,6 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         Some(Action { maneuver, acceleration: acc[0], steering: 0.0 })
     };
     Ok(Observation {
-        scenario,
         time_s,
         turn: turn[0] as u32,
         turn_budget: turn[1] as u32,
@@ -115,7 +115,7 @@ mod tests {
 
     #[test]
     fn missing_line_is_named() {
-        assert_eq!(parse_scene("Scenario: yield_standoff\n"), Err(SceneParseError::MissingLine("Time")));
-        assert_eq!(parse_scene("hello"), Err(SceneParseError::MissingLine("Scenario")));
+        assert_eq!(parse_scene("Scene: intersection\n"), Err(SceneParseError::MissingLine("Time")));
+        assert_eq!(parse_scene("hello"), Err(SceneParseError::MissingLine("Scene")));
     }
 }

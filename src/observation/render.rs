@@ -34,7 +34,9 @@ pub fn render_scene(obs: &Observation) -> String {
         Scene::PedestrianFeint { .. } => PEDESTRIAN_SITUATION,
         Scene::ContestedMerge { .. } => MERGE_SITUATION,
     };
-    let _ = writeln!(out, "Scenario: {}", obs.scenario);
+    // The scene is named by its geometry only: a scenario name such as
+    // "pedestrian_feint" would tell the model which behaviour to expect.
+    let _ = writeln!(out, "Scene: {}", obs.scenario().scene_name());
     let _ = writeln!(out, "Situation: {situation}");
     let _ = writeln!(out, "Time: {} s", f1(obs.time_s));
     let _ = writeln!(

@@ -24,7 +24,9 @@ use serde_json::{Map, Value};
 use std::path::Path;
 
 /// The run-directory schema this build writes, and the newest it reads.
-pub const SCHEMA_VERSION: u32 = 1;
+/// Version 2 adds the evidence timing (`evidence_turn`, `commitment_turn`,
+/// `choice`, `first_in`) to every rollout line.
+pub const SCHEMA_VERSION: u32 = 2;
 
 pub const ROLLOUTS: &str = "rollouts.jsonl";
 pub const ERRORS: &str = "errors.jsonl";

@@ -3,7 +3,7 @@
 //! up), and [`EpisodeScalars`], the one read-side view of a rollout line.
 
 use crate::action::{Action, ActionParseError};
-use crate::episode::{Outcome, TrajectoryPoint};
+use crate::episode::{EvidenceTiming, Outcome, TrajectoryPoint};
 use crate::grading::Diagnostics;
 use crate::llm::Usage;
 use crate::scenario::{Disposition, ScenarioKind, Tier};
@@ -97,6 +97,10 @@ pub struct RolloutRecord {
     pub outcome: Outcome,
     pub reward: f64,
     pub decision_correctness: f64,
+    /// Privileged: the evidence turn, the commitment turn, the go / give-way
+    /// choice and who entered the conflict first (absent before schema 2).
+    #[serde(default, flatten)]
+    pub timing: EvidenceTiming,
     pub diagnostics: Diagnostics,
     /// Decisions taken.
     pub turns_taken: u32,
@@ -149,6 +153,8 @@ pub struct EpisodeScalars {
     pub outcome: Outcome,
     pub reward: f64,
     pub decision_correctness: f64,
+    #[serde(default, flatten)]
+    pub timing: EvidenceTiming,
     pub turns_taken: u32,
     pub parse_error_turns: u32,
     pub tokens: u64,
@@ -190,6 +196,7 @@ impl From<&RolloutRecord> for EpisodeScalars {
             outcome: r.outcome,
             reward: r.reward,
             decision_correctness: r.decision_correctness,
+            timing: r.timing,
             turns_taken: r.turns_taken,
             parse_error_turns: r.parse_error_turns,
             tokens: r.tokens,

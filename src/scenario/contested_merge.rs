@@ -11,8 +11,9 @@
 
 use super::world::{Contact, History, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::action::{Action, Maneuver};
-use crate::observation::{Sample, Scene};
+use crate::action::Action;
+use crate::observation::{Sample, Scene, Track};
+use crate::policy::{go, hedge};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
 use serde::{Deserialize, Serialize};
@@ -223,7 +224,7 @@ impl MergeWorld {
         best
     }
 
-    fn lane_car_accel(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) -> f64 {
+    fn lane_car_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
         let idm = self.params.idm;
         let lane = self.lane_car;
         let rel = lane.s - ego.s;
@@ -250,7 +251,8 @@ impl MergeWorld {
                 let bluffing = self.disposition == Disposition::Committed;
                 let floor = self.params.tier3.floor_fraction * self.cruise;
                 let ego_to_merge = self.merge_point - ego.s;
-                let ego_commits = ego_action.maneuver == Maneuver::Proceed
+                let ego_commits = ego.a > -0.5
+                    && ego.v > 1.0
                     && ego_to_merge > 0.0
                     && ego_to_merge < self.params.tier3.commit_horizon_s * ego.v.max(0.1);
                 if !self.revealed && (ego_commits || lane.v <= floor) {
@@ -316,8 +318,8 @@ impl World for MergeWorld {
         self.params.road.taper_length_m + self.params.ego.goal_past_ramp_end_m
     }
 
-    fn advance(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) {
-        let a_lane = self.lane_car_accel(ego, ego_action, t, dt);
+    fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
+        let a_lane = self.lane_car_accel(ego, t, dt);
         let leader = self.leader(&self.follower, Some(&self.lane_car), ego);
         let a_follow = self.params.idm.accel(self.follower.v, self.cruise, leader);
         self.lane_car.advance(a_lane, dt);
@@ -358,16 +360,16 @@ impl World for MergeWorld {
         }
     }
 
-    fn disposition(&self) -> Disposition {
-        self.disposition
-    }
-
     fn revealed(&self) -> bool {
         self.revealed
     }
 
-    fn resolved(&self, ego: &Body) -> bool {
-        ego.s >= self.merge_point || self.lane_car.s >= self.merge_point
+    fn ego_to_conflict(&self, ego: &Body) -> f64 {
+        self.merge_point - ego.s
+    }
+
+    fn other_entered(&self) -> bool {
+        self.lane_car.s >= self.merge_point
     }
 
     fn cuts_off(&self, ego: &Body) -> bool {
@@ -389,4 +391,46 @@ impl World for MergeWorld {
             PlanPoint { x: self.follower.s, y: 0.0, v: self.follower.v },
         ]
     }
+}
+
+// --- Baseline rules for this scenario (read only the public observation) ---
+
+/// Where the expert waits: this far before the merge point.
+const WAIT_GAP_M: f64 = 3.0;
+
+/// Whether the lane has room for the ego now. Cars are placed by their
+/// centre relative to the ego (positive ahead). The car ahead needs a
+/// headway that grows with the closing speed; a car behind must either be
+/// far back or have actually slowed to a crawl (`crawl_ok`), since a car that
+/// only eases off may close the gap again.
+fn lane_has_room(cars: [&Track; 2], ego_speed: f64, crawl_ok: bool) -> bool {
+    cars.iter().all(|t| {
+        let (rel, v) = (t.now.position_m, t.now.velocity_mps);
+        if rel >= 0.0 {
+            let gap = rel - CAR_LENGTH;
+            gap >= 2.0 + 0.8 * ego_speed + 1.5 * (ego_speed - v).max(0.0)
+        } else {
+            let gap = -rel - CAR_LENGTH;
+            let far = gap >= 4.0 + 0.6 * v + 2.0 * (v - ego_speed).max(0.0);
+            far || (crawl_ok && gap >= 1.0 && v < 4.0)
+        }
+    })
+}
+
+/// The expert: merge once the lane has room; until then keep a stop before
+/// the merge point possible.
+pub(crate) fn expert(v: f64, _v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
+    if lane_has_room([lane_car, follower], v, true) {
+        go()
+    } else if d < 0.0 {
+        Action::new(crate::action::Maneuver::Yield, 0.5)
+    } else {
+        hedge(v, d - WAIT_GAP_M)
+    }
+}
+
+/// The cue follower: merge as soon as the lane car eases off.
+pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
+    let giving_way = lane_car.recent_accel() < -0.3;
+    if d < 0.0 || lane_has_room([lane_car, follower], v, true) || giving_way { go() } else { hedge(v, d - 1.0) }
 }

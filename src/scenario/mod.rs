@@ -36,6 +36,20 @@ impl ScenarioKind {
         }
     }
 
+    /// The neutral name of the scene's geometry, as the scene text prints
+    /// it: it names the place, never a behaviour to expect.
+    pub fn scene_name(self) -> &'static str {
+        match self {
+            ScenarioKind::YieldStandoff => "intersection",
+            ScenarioKind::PedestrianFeint => "crosswalk",
+            ScenarioKind::ContestedMerge => "on-ramp",
+        }
+    }
+
+    pub fn from_scene_name(name: &str) -> Option<ScenarioKind> {
+        ScenarioKind::ALL.into_iter().find(|k| k.scene_name() == name)
+    }
+
     /// Small stable id mixed into RNG keys (never reorder).
     fn rng_id(self) -> u64 {
         match self {
@@ -248,22 +262,43 @@ impl FieldCheck<'_> {
     }
 }
 
+/// Decisions before an episode ends as a timeout: one number for every
+/// tier, or `[tier 1, tier 2, tier 3]`. It is printed in the scene text, so
+/// it may depend on the tier (the information structure, which is public)
+/// but never on the hidden disposition.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum TurnBudget {
+    All(u32),
+    PerTier([u32; 3]),
+}
+
+impl TurnBudget {
+    pub fn get(self, tier: Tier) -> u32 {
+        match self {
+            TurnBudget::All(n) => n,
+            TurnBudget::PerTier(ns) => ns[tier.number() as usize - 1],
+        }
+    }
+}
+
 /// Parameters shared by every scenario file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Common {
     /// Decisions before the episode ends as a timeout (at most 40).
-    pub turn_budget: u32,
+    pub turn_budget: TurnBudget,
     /// Ego speed limit (m/s).
     pub speed_limit_mps: f64,
 }
 
 impl Common {
     fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
-        if self.turn_budget == 0 || self.turn_budget > crate::sim::MAX_TURNS {
-            return Err(
-                c.err("turn_budget", format!("must be 1..={}, got {}", crate::sim::MAX_TURNS, self.turn_budget))
-            );
+        for tier in Tier::ALL {
+            let n = self.turn_budget.get(tier);
+            if n == 0 || n > crate::sim::MAX_TURNS {
+                return Err(c.err("turn_budget", format!("must be 1..={}, got {n}", crate::sim::MAX_TURNS)));
+            }
         }
         c.within("speed_limit_mps", self.speed_limit_mps, 3.0, 20.0)
     }
@@ -298,6 +333,31 @@ impl ScenarioConfig {
             ScenarioConfig::YieldStandoff(p) => &p.episode,
             ScenarioConfig::PedestrianFeint(p) => &p.episode,
             ScenarioConfig::ContestedMerge(p) => &p.episode,
+        }
+    }
+
+    /// Build the world of one episode: its geometry from the episode key's
+    /// geometry stream, its observation noise from the noise stream. The
+    /// only place that maps a scenario to its world type.
+    pub(crate) fn build_world(
+        &self,
+        tier: Tier,
+        disposition: Disposition,
+        key: &[u64; 3],
+    ) -> Box<dyn world::World + Send> {
+        use crate::rng::{EpisodeRng, Stream};
+        let mut geometry = EpisodeRng::new(key, Stream::Geometry);
+        let noise = EpisodeRng::new(key, Stream::ObservationNoise);
+        match self {
+            ScenarioConfig::YieldStandoff(p) => {
+                Box::new(yield_standoff::YieldWorld::new(p, tier, disposition, &mut geometry))
+            }
+            ScenarioConfig::PedestrianFeint(p) => {
+                Box::new(pedestrian_feint::PedestrianWorld::new(p, tier, disposition, &mut geometry))
+            }
+            ScenarioConfig::ContestedMerge(p) => {
+                Box::new(contested_merge::MergeWorld::new(p, tier, disposition, &mut geometry, noise))
+            }
         }
     }
 

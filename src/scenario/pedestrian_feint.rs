@@ -1,15 +1,59 @@
 //! `pedestrian_feint`: an unmarked crosswalk (a signalling game). The
-//! pedestrian is a `crosser` (steps in and crosses) or a `feinter` (lurches
-//! toward the road, stops short at the kerb, then steps back and walks away).
+//! pedestrian is a `crosser` (steps in and crosses: the ego must give way) or
+//! a `feinter` (stops at the kerb to let the car pass: the ego should go). A
+//! feinter waits only for a car whose motion says it is going; once the car
+//! hangs back for the feinter's patience (drawn per seed), it takes its turn
+//! and crosses at walking pace: a car that slows and stops is, to a
+//! pedestrian, an invitation.
+//!
+//! Until the reveal both dispositions move identically: same start, same
+//! walking speed, same stop at the kerb (tier 3). Every reaction is a
+//! function of the ego's kinematic state only ([`EgoApproach`]).
+//!
+//! Tiers (all timings drawn per seed and tied to the ego's own full-throttle
+//! arrival at the crossing line, `t_race`):
+//! - tier 1: the pedestrian walks toward the kerb and reaches it
+//!   `tier1.kerb_lead_s` before `t_race`; the crosser walks on, the feinter
+//!   decelerates and stops at the kerb (the cue).
+//! - tier 2: both wait at the kerb; the crosser steps out late and briskly,
+//!   `tier2.step_lead_s` before `t_race` (less reaction time).
+//! - tier 3: both walk to the kerb and stop; the crosser then darts (2.5 m/s)
+//!   the moment the ego's motion shows it will reach the line within
+//!   `tier3.dart_horizon_s` at its current speed (or when its long linger
+//!   runs out). A car that keeps a pace from which it can still stop after
+//!   seeing the dart, and goes only once it is due so soon that a crosser
+//!   would already have darted, survives it.
+//!
+//! Why each blind play loses (one that never looks at the pedestrian):
+//! - racing: the crosser is in the ego's path when a full-throttle ego
+//!   arrives under every geometry drawn (tiers 1-2: its timing is tied to
+//!   `t_race`; tier 3: its dart is triggered by the approach itself and
+//!   occupies the path when a fast car arrives).
+//! - keeping a "going" pace but arriving late: the feinter counts as going
+//!   only a car that is not braking and either keeps 85% of the speed limit
+//!   or is due within `waits_while_eta_s`; from such a pace the ego cannot
+//!   lose enough time to let a crosser clear, and every second of anything
+//!   else (braking, a slow approach) counts against the feinter's patience.
+//! - hanging back to let a possible crosser pass (late hard stop, slow
+//!   approach, stop-and-go, triggering the dart and then braking): the
+//!   feinter's patience is short (cumulative from t = 0), so it steps in
+//!   (after standing `look_s` at the kerb) and is in the ego's path by the
+//!   time the crosser would have cleared it or the dart would have passed.
+//! - outwaiting both: the feinter's own passage (stepping in only after
+//!   `look_s`, then walking slowly in front of a stopped car), and in tier 3
+//!   the crosser's long linger before an untriggered dart, end later than
+//!   the turn budget allows; the expert, who reads the cue and times its
+//!   arrival behind a crosser, finishes within it with slack.
 //!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
 //! lateral from the near kerb: `lat = y + 1.75`.
 
-use super::world::{Contact, History, PlanPoint, World, car_box, crossing_ttc};
+use super::world::{Contact, EgoApproach, History, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::{Action, Maneuver};
-use crate::observation::{Sample, Scene};
+use crate::observation::{Sample, Scene, Track};
+use crate::policy::{go, hedge};
 use crate::rng::EpisodeRng;
 use crate::sim::{Aabb, Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, PEDESTRIAN_SIZE, travel_time};
 use serde::{Deserialize, Serialize};
@@ -23,8 +67,17 @@ pub const PATH_NEAR: f64 = KERB - 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 pub const PATH_FAR: f64 = KERB + 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 /// Far kerb of the two-lane road.
 pub const FAR_KERB: f64 = 4.0 * KERB;
-/// Pedestrians change speed at most this fast (m/s^2).
+/// Pedestrians stop and step out this briskly (m/s^2).
 const PED_ACCEL: f64 = 6.0;
+/// A car keeping at least this fraction of the speed limit (and not
+/// braking) is going, to a waiting pedestrian.
+const GOING_PACE: f64 = 0.85;
+/// A car slower than this (m/s) is not "going" to a waiting pedestrian.
+const GOING_MIN_SPEED: f64 = 3.0;
+/// A car braking harder than this (m/s^2) is hanging back.
+const GOING_MIN_ACCEL: f64 = -0.6;
+/// A darting crosser reacts to a car at most this slow (m/s) too.
+const DART_MIN_SPEED: f64 = 1.0;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -32,6 +85,7 @@ pub struct PedestrianParams {
     pub episode: Common,
     pub ego: PedEgo,
     pub pedestrian: PedBehaviour,
+    pub tier1: PedTier1,
     pub tier2: PedTier2,
     pub tier3: PedTier3,
 }
@@ -49,86 +103,93 @@ pub struct PedEgo {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedBehaviour {
-    /// Lateral start position (negative: on the sidewalk).
-    pub start_position_m: Range,
+    /// Walking speed of both dispositions until the reveal (m/s).
     pub walk_speed_mps: Range,
-    /// Speed of a feinter's lurch toward the kerb.
-    pub lurch_speed_mps: f64,
-    /// Where a feinter (and a pausing crosser) stops short.
+    /// Where the pedestrian stands when it waits at the kerb (lateral, m).
     pub kerb_stop_m: f64,
-    /// How long a feinter stands at the kerb before stepping back (s).
-    pub hold_s: Range,
-    pub step_back_speed_mps: f64,
-    /// Where a crosser is (lateral) when a full-throttle ego reaches the
-    /// crossing line: inside the ego's path band makes "always proceed" hit it.
-    pub position_at_ego_arrival_m: Range,
+    /// A waiting pedestrian keeps waiting while the car, not braking and
+    /// faster than a crawl, is due at the crossing line within this (s).
+    pub waits_while_eta_s: f64,
+    /// A feinter stands at the kerb at least this long (s), from the moment
+    /// it decides (tier 2: when a crosser would step out), before it steps in.
+    pub look_s: Range,
+    /// A feinter who gave up walks across at this pace (m/s) ...
+    pub give_up_speed_mps: Range,
+    /// ... pulling away from rest this gently (m/s^2).
+    pub give_up_accel_mps2: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PedTier1 {
+    /// The pedestrian reaches the kerb this long (s) before a full-throttle
+    /// ego would reach the crossing line.
+    pub kerb_lead_s: Range,
+    /// Hang-back (s) a waiting feinter tolerates before it crosses.
+    pub patience_s: Range,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedTier2 {
-    /// The pedestrian waits closer to the kerb and the crosser steps out late
-    /// and fast: less reaction time.
-    pub start_position_m: Range,
-    pub step_out_speed_mps: f64,
+    /// Both wait at the kerb; the crosser steps out this long (s) before a
+    /// full-throttle ego would reach the crossing line.
+    pub step_lead_s: Range,
+    pub step_out_speed_mps: Range,
+    pub patience_s: Range,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedTier3 {
-    /// Where both start, walking to the kerb at once.
-    pub start_position_m: Range,
-    /// Both walk to the kerb and stop; they linger this long (s) before the
-    /// feinter steps back or the crosser darts.
+    /// Both reach the kerb this long (s) before a full-throttle arrival,
+    /// and stop there.
+    pub kerb_lead_s: Range,
+    /// The crosser darts after lingering this long (s) at the kerb ...
     pub linger_s: Range,
+    /// ... or as soon as a moving, not-stopping ego is due at the crossing
+    /// line within this (s), after a reaction time.
+    pub dart_horizon_s: Range,
+    pub dart_reaction_s: f64,
     pub dart_speed_mps: f64,
-    /// The crosser darts at once when a moving ego is due at the crossing
-    /// line within this many seconds.
-    pub dart_horizon_s: f64,
+    pub patience_s: Range,
 }
 
 impl PedestrianParams {
     pub(crate) fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
         self.episode.validate(c)?;
         c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
-        c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.0, self.episode.speed_limit_mps)?;
+        c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.5, self.episode.speed_limit_mps)?;
         c.within("ego.goal_past_crosswalk_m", self.ego.goal_past_crosswalk_m, X_HALF, 200.0)?;
         let b = &self.pedestrian;
-        c.range_within("pedestrian.start_position_m", b.start_position_m, -10.0, -0.5)?;
         c.range_within("pedestrian.walk_speed_mps", b.walk_speed_mps, 0.3, 3.0)?;
-        c.within("pedestrian.lurch_speed_mps", b.lurch_speed_mps, 0.3, 4.0)?;
         c.within("pedestrian.kerb_stop_m", b.kerb_stop_m, -2.0, 0.0)?;
-        c.range_within("pedestrian.hold_s", b.hold_s, 0.0, 20.0)?;
-        c.within("pedestrian.step_back_speed_mps", b.step_back_speed_mps, 0.3, 3.0)?;
-        c.range_within("pedestrian.position_at_ego_arrival_m", b.position_at_ego_arrival_m, PATH_NEAR, PATH_FAR)?;
-        c.range_within("tier2.start_position_m", self.tier2.start_position_m, -10.0, b.kerb_stop_m)?;
-        c.within("tier2.step_out_speed_mps", self.tier2.step_out_speed_mps, 0.3, 4.0)?;
-        c.range_within("tier3.start_position_m", self.tier3.start_position_m, -10.0, b.kerb_stop_m)?;
-        c.range_within("tier3.linger_s", self.tier3.linger_s, 0.0, 20.0)?;
+        c.within("pedestrian.waits_while_eta_s", b.waits_while_eta_s, 0.5, 10.0)?;
+        c.range_within("pedestrian.look_s", b.look_s, 0.0, 10.0)?;
+        c.range_within("pedestrian.give_up_speed_mps", b.give_up_speed_mps, 0.3, 3.0)?;
+        c.within("pedestrian.give_up_accel_mps2", b.give_up_accel_mps2, 0.1, PED_ACCEL)?;
+        c.range_within("tier1.kerb_lead_s", self.tier1.kerb_lead_s, 0.0, 10.0)?;
+        c.range_within("tier1.patience_s", self.tier1.patience_s, 0.0, 20.0)?;
+        c.range_within("tier2.step_lead_s", self.tier2.step_lead_s, 0.0, 10.0)?;
+        c.range_within("tier2.step_out_speed_mps", self.tier2.step_out_speed_mps, 0.3, 4.0)?;
+        c.range_within("tier2.patience_s", self.tier2.patience_s, 0.0, 20.0)?;
+        c.range_within("tier3.kerb_lead_s", self.tier3.kerb_lead_s, 0.0, 10.0)?;
+        c.range_within("tier3.linger_s", self.tier3.linger_s, 0.0, 30.0)?;
+        c.range_within("tier3.dart_horizon_s", self.tier3.dart_horizon_s, 0.0, 5.0)?;
+        c.within("tier3.dart_reaction_s", self.tier3.dart_reaction_s, 0.0, 2.0)?;
         c.within("tier3.dart_speed_mps", self.tier3.dart_speed_mps, 0.5, 5.0)?;
-        c.within("tier3.dart_horizon_s", self.tier3.dart_horizon_s, 0.0, 5.0)
+        c.range_within("tier3.patience_s", self.tier3.patience_s, 0.0, 20.0)
     }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
-    /// Standing at the start until `until`.
-    Wait {
-        until: f64,
-    },
-    /// Crossing the road at `speed`.
-    Cross {
-        speed: f64,
-    },
-    /// Moving toward the kerb stop at `speed`, then lingering.
-    ToKerb {
-        speed: f64,
-    },
-    Linger {
-        since: f64,
-    },
-    /// Walking away from the road.
-    StepBack,
+    /// Walking toward the kerb (tiers 1 and 3). A tier-1 crosser walks on.
+    ToKerb,
+    /// Standing at the kerb since `since`.
+    AtKerb { since: f64 },
+    /// Crossing the road at `speed`, changing speed at most `accel`.
+    Cross { speed: f64, accel: f64 },
 }
 
 pub struct PedestrianWorld {
@@ -140,9 +201,19 @@ pub struct PedestrianWorld {
     lat: f64,
     vel: f64,
     phase: Phase,
-    /// Speed at which a crosser steps out in tiers 1 and 2.
-    cross_speed: f64,
+    walk: f64,
+    /// Tier 1: the crosser keeps walking; tier 2: the crosser steps out and
+    /// the feinter starts watching at `decide_at` (s).
+    decide_at: f64,
+    step_speed: f64,
+    patience: f64,
+    /// Hang-back accumulated while the feinter waits (s).
+    waited: f64,
+    give_up_speed: f64,
+    look: f64,
     linger: f64,
+    dart_horizon: f64,
+    dart_at: Option<f64>,
     revealed: bool,
     history: History,
 }
@@ -150,30 +221,37 @@ pub struct PedestrianWorld {
 impl PedestrianWorld {
     pub fn new(params: &PedestrianParams, tier: Tier, disposition: Disposition, geometry: &mut EpisodeRng) -> Self {
         let b = &params.pedestrian;
+        // Every draw is made under both dispositions, in the same order.
         let d_ego = params.ego.start_distance_m.sample(geometry);
         let v_ego = params.ego.start_speed_mps.sample(geometry);
-        let start_t1 = b.start_position_m.sample(geometry);
-        let start_t2 = params.tier2.start_position_m.sample(geometry);
         let walk = b.walk_speed_mps.sample(geometry);
-        let at_arrival = b.position_at_ego_arrival_m.sample(geometry);
-        let hold = b.hold_s.sample(geometry);
-        let linger3 = params.tier3.linger_s.sample(geometry);
-        let start_t3 = params.tier3.start_position_m.sample(geometry);
-        let t3_start = 0.3 + 0.5 * geometry.unit();
-        let t_ego = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
-        let (lat, cross_speed) = match tier {
-            Tier::T1 => (start_t1, walk),
-            Tier::T2 => (start_t2, params.tier2.step_out_speed_mps),
-            Tier::T3 => (start_t3, walk),
-        };
-        let (phase, linger) = match tier {
-            Tier::T1 | Tier::T2 => {
-                // A crosser stepping out at `until` is at `at_arrival` when a
-                // full-throttle ego reaches the line.
-                let until = (t_ego - (at_arrival - lat) / cross_speed).max(0.5);
-                (Phase::Wait { until }, hold)
+        let give_up_speed = b.give_up_speed_mps.sample(geometry);
+        let look = b.look_s.sample(geometry);
+        let (lead, patience, step_speed, linger, dart_horizon) = match tier {
+            Tier::T1 => {
+                (params.tier1.kerb_lead_s.sample(geometry), params.tier1.patience_s.sample(geometry), walk, 0.0, 0.0)
             }
-            Tier::T3 => (Phase::Wait { until: t3_start }, linger3),
+            Tier::T2 => (
+                params.tier2.step_lead_s.sample(geometry),
+                params.tier2.patience_s.sample(geometry),
+                params.tier2.step_out_speed_mps.sample(geometry),
+                0.0,
+                0.0,
+            ),
+            Tier::T3 => (
+                params.tier3.kerb_lead_s.sample(geometry),
+                params.tier3.patience_s.sample(geometry),
+                params.tier3.dart_speed_mps,
+                params.tier3.linger_s.sample(geometry),
+                params.tier3.dart_horizon_s.sample(geometry),
+            ),
+        };
+        let t_race = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
+        let decide_at = (t_race - lead).max(0.5);
+        let (lat, vel, phase) = match tier {
+            // Already walking: at the kerb stop at `decide_at`.
+            Tier::T1 | Tier::T3 => (b.kerb_stop_m - walk * decide_at, walk, Phase::ToKerb),
+            Tier::T2 => (b.kerb_stop_m, 0.0, Phase::AtKerb { since: 0.0 }),
         };
         PedestrianWorld {
             tier,
@@ -181,12 +259,20 @@ impl PedestrianWorld {
             params: params.clone(),
             ego_start: Body::new(-X_HALF - d_ego, v_ego),
             lat,
-            vel: 0.0,
+            vel,
             phase,
-            cross_speed,
+            walk,
+            decide_at,
+            step_speed,
+            patience,
+            waited: 0.0,
+            give_up_speed,
+            look,
             linger,
+            dart_horizon,
+            dart_at: None,
             revealed: false,
-            history: History::steady(Sample { position_m: lat, velocity_mps: 0.0 }, 0.0),
+            history: History::steady(Sample { position_m: lat, velocity_mps: vel }, vel),
         }
     }
 
@@ -194,12 +280,31 @@ impl PedestrianWorld {
         Aabb::centered(0.0, self.lat - KERB, PEDESTRIAN_SIZE, PEDESTRIAN_SIZE)
     }
 
-    /// Move toward `target_vel`, changing speed at most PED_ACCEL.
-    fn walk(&mut self, target_vel: f64, dt: f64) {
-        let dv = (target_vel - self.vel).clamp(-PED_ACCEL * dt, PED_ACCEL * dt);
+    /// Move toward `target_vel`, changing speed at most `accel`.
+    fn walk_toward(&mut self, target_vel: f64, accel: f64, dt: f64) {
+        let dv = (target_vel - self.vel).clamp(-accel * dt, accel * dt);
         let v_next = self.vel + dv;
         self.lat += 0.5 * (self.vel + v_next) * dt;
         self.vel = v_next;
+    }
+
+    /// Whether the ego's motion tells a waiting pedestrian that it is going
+    /// first: not braking, and either keeping a through pace or, faster than
+    /// a crawl, due soon.
+    fn ego_going(&self, ego: &Body) -> bool {
+        let v_max = self.params.episode.speed_limit_mps;
+        let app = EgoApproach::new(-X_HALF - ego.s, ego);
+        app.to_conflict > 0.0
+            && ego.a > GOING_MIN_ACCEL
+            && (ego.v >= GOING_PACE * v_max
+                || (ego.v >= GOING_MIN_SPEED && app.eta(v_max) <= self.params.pedestrian.waits_while_eta_s))
+    }
+
+    /// Whether the ego's motion shows it will reach the line within the
+    /// dart horizon at its current speed (moving and not braking).
+    fn ego_due(&self, ego: &Body) -> bool {
+        let d = -X_HALF - ego.s;
+        d > 0.0 && ego.v >= DART_MIN_SPEED && ego.a > GOING_MIN_ACCEL && d <= self.dart_horizon * ego.v
     }
 }
 
@@ -212,62 +317,79 @@ impl World for PedestrianWorld {
         self.params.ego.goal_past_crosswalk_m
     }
 
-    fn advance(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) {
-        let b = &self.params.pedestrian;
+    fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
         let crosser = self.disposition == Disposition::Crosser;
-        let kerb_stop = b.kerb_stop_m;
-        let (lurch, step_back) = (b.lurch_speed_mps, b.step_back_speed_mps);
+        let kerb_stop = self.params.pedestrian.kerb_stop_m;
+        let mut accel = PED_ACCEL;
+        // The pedestrian watches the car from the start: hang-back counts
+        // whenever the car's motion does not say it is going first.
+        if ego.s < -X_HALF && !self.ego_going(ego) {
+            self.waited += dt;
+        }
         let target = match self.phase {
-            Phase::Wait { until } => {
-                if t + 1e-9 >= until {
-                    self.phase = match (self.tier, crosser) {
-                        (Tier::T3, _) => Phase::ToKerb { speed: self.cross_speed },
-                        (_, true) => Phase::Cross { speed: self.cross_speed },
-                        (_, false) => Phase::ToKerb { speed: lurch },
+            Phase::ToKerb => {
+                let left = kerb_stop - self.lat;
+                // Where a pedestrian who stops at the kerb starts to slow.
+                if left <= self.walk * self.walk / (2.0 * PED_ACCEL) + 0.02 && self.tier == Tier::T1 {
+                    self.revealed = true;
+                }
+                if self.tier == Tier::T1 && crosser {
+                    self.phase = Phase::Cross { speed: self.walk, accel: PED_ACCEL };
+                    if left > 0.0 {
+                        self.phase = Phase::ToKerb;
+                    }
+                    self.walk
+                } else if left <= 0.005 && self.vel <= 0.05 {
+                    self.phase = Phase::AtKerb { since: t };
+                    0.0
+                } else {
+                    self.walk.min((2.0 * PED_ACCEL * left.max(0.0)).sqrt())
+                }
+            }
+            Phase::AtKerb { since } => {
+                if crosser {
+                    match self.tier {
+                        Tier::T1 => {}
+                        Tier::T2 => {
+                            if t + 1e-9 >= self.decide_at {
+                                self.revealed = true;
+                                self.phase = Phase::Cross { speed: self.step_speed, accel: PED_ACCEL };
+                            }
+                        }
+                        Tier::T3 => {
+                            if self.dart_at.is_none() && self.ego_due(ego) {
+                                self.dart_at = Some(t + self.params.tier3.dart_reaction_s);
+                            }
+                            let dart = self.dart_at.is_some_and(|d| t + 1e-9 >= d) || t - since + 1e-9 >= self.linger;
+                            if dart {
+                                self.revealed = true;
+                                self.phase = Phase::Cross { speed: self.step_speed, accel: PED_ACCEL };
+                            }
+                        }
+                    }
+                } else {
+                    // It decides no earlier than a crosser would step out.
+                    let decided = match self.tier {
+                        Tier::T2 => self.decide_at,
+                        _ => since,
                     };
-                    if self.tier != Tier::T3 {
+                    let deciding = t + 1e-9 >= decided + self.look;
+                    if deciding && self.waited + 1e-9 >= self.patience {
                         self.revealed = true;
+                        self.phase = Phase::Cross {
+                            speed: self.give_up_speed,
+                            accel: self.params.pedestrian.give_up_accel_mps2,
+                        };
                     }
                 }
                 0.0
             }
-            Phase::Cross { speed } => {
-                if self.lat >= FAR_KERB + 1.0 {
-                    0.0
-                } else {
-                    speed
-                }
+            Phase::Cross { speed, accel: a } => {
+                accel = a;
+                if self.lat >= FAR_KERB + 1.0 { 0.0 } else { speed }
             }
-            Phase::ToKerb { speed } => {
-                // Stop short exactly at the kerb stop.
-                let left = kerb_stop - self.lat;
-                let v_stop = (2.0 * PED_ACCEL * left.max(0.0)).sqrt();
-                if left <= 0.005 && self.vel <= 0.05 {
-                    self.phase = Phase::Linger { since: t };
-                    0.0
-                } else {
-                    speed.min(v_stop)
-                }
-            }
-            Phase::Linger { since } => {
-                let waited = t - since >= self.linger;
-                let ego_to_line = -X_HALF - ego.s;
-                let ego_due = ego.v > 3.0
-                    && ego_to_line > 0.0
-                    && ego_to_line < self.params.tier3.dart_horizon_s * ego.v
-                    && ego_action.maneuver != Maneuver::Stop;
-                if self.tier == Tier::T3 && crosser && (waited || ego_due) {
-                    self.revealed = true;
-                    self.phase = Phase::Cross { speed: self.params.tier3.dart_speed_mps };
-                } else if waited {
-                    self.revealed = true;
-                    self.phase = Phase::StepBack;
-                }
-                0.0
-            }
-            Phase::StepBack => -step_back,
         };
-        self.walk(target, dt);
+        self.walk_toward(target, accel, dt);
     }
 
     fn contact(&self, ego: &Body) -> Contact {
@@ -289,16 +411,16 @@ impl World for PedestrianWorld {
         Scene::PedestrianFeint { ego_to_crosswalk_m: -X_HALF - ego.s, pedestrian: self.history.track(now) }
     }
 
-    fn disposition(&self) -> Disposition {
-        self.disposition
-    }
-
     fn revealed(&self) -> bool {
         self.revealed
     }
 
-    fn resolved(&self, ego: &Body) -> bool {
-        ego.s > -X_HALF || self.lat > PATH_NEAR
+    fn ego_to_conflict(&self, ego: &Body) -> f64 {
+        -X_HALF - ego.s
+    }
+
+    fn other_entered(&self) -> bool {
+        self.lat > PATH_NEAR
     }
 
     fn cuts_off(&self, ego: &Body) -> bool {
@@ -309,4 +431,81 @@ impl World for PedestrianWorld {
     fn plan(&self, ego: &Body) -> Vec<PlanPoint> {
         vec![PlanPoint { x: ego.s, y: 0.0, v: ego.v }, PlanPoint { x: 0.0, y: self.lat - KERB, v: self.vel }]
     }
+}
+
+// --- Baseline rules for this scenario (read only the public observation) ---
+
+/// Where the expert waits: this far before the crossing line.
+const WAIT_GAP_M: f64 = 2.0;
+/// The expert's pace while it reads the pedestrian (m/s).
+const PACE_MPS: f64 = 10.5;
+/// A pedestrian standing at the kerb while the ego is due within this (s)
+/// is waiting for the ego: any crosser (late step-out, dart) would already
+/// be moving.
+const COMMIT_ETA_S: f64 = 1.2;
+
+/// Whether the ego could still stop short of the line if it kept its speed
+/// for one more decision (0.5 s) and then braked hard.
+fn can_wait_a_turn(v: f64, d: f64) -> bool {
+    d - 0.5 * v - 0.1 >= v * v / (2.0 * 8.0)
+}
+
+/// Give way to a pedestrian in or stepping into the road, timing the arrival
+/// at the line for just after it has cleared the ego's path.
+fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
+    if vel > 0.3 && lat > PATH_NEAR - 1.0 && d > 0.3 {
+        let t_clear = (PATH_FAR + 0.1 - lat) / vel + 0.4;
+        // The steady speed that reaches the line just after it clears.
+        let v_t = d / t_clear;
+        return if v > v_t + 0.3 {
+            let need = (v - v_t) / 0.5;
+            if need > 4.0 {
+                Action::new(Maneuver::Stop, ((need - 4.0) / 4.0).clamp(0.0, 1.0))
+            } else {
+                Action::new(Maneuver::Yield, ((need - 0.5) / 3.5).clamp(0.0, 1.0))
+            }
+        } else if v < v_t - 0.3 {
+            Action::new(Maneuver::Proceed, 0.0)
+        } else {
+            Action::new(Maneuver::Yield, 0.0)
+        };
+    }
+    hedge(v, d - WAIT_GAP_M)
+}
+
+/// The expert: give way to a pedestrian moving into or through the road;
+/// keep a going pace toward one who walks to or stands at the kerb while a
+/// stop stays possible, and go once it is due so soon that a crosser would
+/// already have moved (a standing pedestrian then waits for the ego).
+pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
+    let lat = p.now.position_m;
+    let vel = p.now.velocity_mps;
+    if d < 0.0 || (lat > PATH_FAR + 0.1 && vel >= -0.1) {
+        return go();
+    }
+    let kerb = lat <= -0.1;
+    let standing = vel.abs() < 0.15;
+    // Slowing at the kerb is stopping, not stepping off.
+    let stopping = p.recent_accel() < -0.3;
+    let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
+    if !kerb || (!standing && !stopping && (lat > -0.25 || setting_off)) {
+        return give_way(v, d, lat, vel);
+    }
+    let eta = if v > 0.5 { d / v } else { f64::INFINITY };
+    if standing && lat > -1.2 && eta <= COMMIT_ETA_S {
+        return go();
+    }
+    if !can_wait_a_turn(v, d) {
+        return hedge(v, d - WAIT_GAP_M);
+    }
+    // Keep a going pace.
+    if v < PACE_MPS { Action::new(Maneuver::Proceed, 0.0) } else { Action::new(Maneuver::Yield, 0.0) }
+}
+
+/// The cue follower: go as soon as the pedestrian is not moving into the road.
+pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
+    let lat = p.now.position_m;
+    let crossed = lat > PATH_FAR + 0.3;
+    let coming = p.now.velocity_mps > 0.2 || (lat > 0.0 && !crossed);
+    if d < 0.0 || crossed || !coming { go() } else { give_way(v, d, lat, p.now.velocity_mps) }
 }

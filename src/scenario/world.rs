@@ -1,9 +1,7 @@
 //! What every scenario world provides to the episode loop. A world owns the
 //! other road users and the hidden state; the episode owns the ego.
 
-use crate::action::Action;
 use crate::observation::{HISTORY_LEN, Sample, Scene, Track};
-use crate::scenario::Disposition;
 use crate::sim::{Aabb, Body};
 
 /// Privileged per-step facts the graders read.
@@ -29,22 +27,25 @@ pub trait World {
     fn ego_start(&self) -> Body;
     /// Ego path coordinate at which the episode succeeds.
     fn goal_s(&self) -> f64;
-    /// Move the other road users one physics step; they may react to the
-    /// ego's state and to the action it currently holds.
-    fn advance(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64);
+    /// Move the other road users one physics step. They react to the ego's
+    /// kinematic state only (position, speed, acceleration over the last
+    /// step): the signature carries no action, so no road user can react to
+    /// the maneuver label a policy chose.
+    fn advance(&mut self, ego: &Body, t: f64, dt: f64);
     /// Collision, clearance and time-to-collision against the ego.
     fn contact(&self, ego: &Body) -> Contact;
     /// The public scene at a decision. Records the observed sample into the
     /// history (so call it exactly once per decision).
     fn observe(&mut self, ego: &Body) -> Scene;
-    /// Privileged: the hidden disposition.
-    fn disposition(&self) -> Disposition;
     /// Privileged: whether the disposition has started to show in the other
     /// agent's motion.
     fn revealed(&self) -> bool;
-    /// Privileged: whether the go / give-way question is settled (one of the
-    /// two has entered the conflict zone).
-    fn resolved(&self, ego: &Body) -> bool;
+    /// Distance (m) the ego still has to travel before it enters the
+    /// conflict (the crossing, the pedestrian's path, the merge point);
+    /// zero or negative once it has.
+    fn ego_to_conflict(&self, ego: &Body) -> f64;
+    /// Privileged: whether the other road user has entered the conflict.
+    fn other_entered(&self) -> bool;
     /// Privileged: whether the ego is entering the conflict zone while the
     /// other has the way (inside it, or due in less than `ROW_MARGIN_S`).
     fn cuts_off(&self, ego: &Body) -> bool;
@@ -69,6 +70,20 @@ impl History {
         for (i, s) in past.iter_mut().enumerate() {
             let k = (HISTORY_LEN - i) as f64;
             s.position_m = now.position_m - position_rate * k * crate::observation::HISTORY_SPACING_S;
+        }
+        History { past }
+    }
+
+    /// History of a road user that has been braking at `decel` (m/s^2,
+    /// positive) before t = 0; `position_rate` is the sign of how its
+    /// observed position moves with its own travel (+1 or -1).
+    pub fn braking(now: Sample, decel: f64, position_rate: f64) -> Self {
+        let mut past = [now; HISTORY_LEN];
+        for (i, s) in past.iter_mut().enumerate() {
+            let tau = (HISTORY_LEN - i) as f64 * crate::observation::HISTORY_SPACING_S;
+            let v = now.velocity_mps + decel * tau;
+            let travelled = now.velocity_mps * tau + 0.5 * decel * tau * tau;
+            *s = Sample { position_m: now.position_m - position_rate * travelled, velocity_mps: v };
         }
         History { past }
     }
@@ -114,4 +129,49 @@ pub fn crossing_ttc(
 pub fn car_box(x: f64, y: f64, along_x: bool) -> Aabb {
     use crate::sim::{CAR_LENGTH, CAR_WIDTH};
     if along_x { Aabb::centered(x, y, CAR_LENGTH, CAR_WIDTH) } else { Aabb::centered(x, y, CAR_WIDTH, CAR_LENGTH) }
+}
+
+/// The ego as another road user sees it: where it is relative to the
+/// conflict and how it moves. Reactions of other road users are functions
+/// of this, never of the ego's action.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct EgoApproach {
+    /// Distance to the conflict (m); zero or negative once inside.
+    pub to_conflict: f64,
+    pub v: f64,
+    /// Acceleration over the last physics step.
+    pub a: f64,
+}
+
+impl EgoApproach {
+    pub fn new(to_conflict: f64, ego: &Body) -> Self {
+        EgoApproach { to_conflict, v: ego.v, a: ego.a }
+    }
+
+    /// Seconds until the ego reaches the conflict if it keeps its current
+    /// acceleration (capped at `v_max`); infinite if it would stop short.
+    pub fn eta(&self, v_max: f64) -> f64 {
+        let (d, v, a) = (self.to_conflict, self.v, self.a);
+        if d <= 0.0 {
+            return 0.0;
+        }
+        if a > 1e-6 && v < v_max {
+            let t1 = (v_max - v) / a;
+            let d1 = v * t1 + 0.5 * a * t1 * t1;
+            if d1 >= d { (-v + (v * v + 2.0 * a * d).sqrt()) / a } else { t1 + (d - d1) / v_max }
+        } else if a < -1e-6 {
+            let disc = v * v + 2.0 * a * d;
+            if disc < 0.0 { f64::INFINITY } else { (v - disc.sqrt()) / -a }
+        } else if v > 1e-6 {
+            d / v
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Whether the ego could no longer stop short of the conflict even at
+    /// full braking.
+    pub fn beyond_stopping(&self) -> bool {
+        self.v * self.v / (2.0 * crate::sim::EGO_MAX_BRAKE) > self.to_conflict
+    }
 }

@@ -5,10 +5,11 @@
 //! Frame: the ego drives along +y at x = 0, the other car along +x at y = 0;
 //! positions are box centres, the crossing centre is the origin.
 
-use super::world::{Contact, History, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
+use super::world::{Contact, EgoApproach, History, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::action::{Action, Maneuver};
-use crate::observation::{Sample, Scene};
+use crate::action::Action;
+use crate::observation::{Sample, Scene, Track};
+use crate::policy::{go, hedge};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
 use serde::{Deserialize, Serialize};
@@ -198,7 +199,7 @@ impl World for YieldWorld {
         self.params.ego.goal_past_zone_m
     }
 
-    fn advance(&mut self, ego: &Body, ego_action: &Action, t: f64, dt: f64) {
+    fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
         let to_zone = self.other_to_zone();
         let accel = match (self.tier, self.disposition) {
             (Tier::T1, Disposition::Committed) => 0.0,
@@ -218,10 +219,12 @@ impl World for YieldWorld {
                 if disposition == Disposition::Committed { 0.0 } else { self.yielder_accel(ego, t, dt) }
             }
             (Tier::T3, disposition) => {
-                let ego_to_zone = -HALF_ZONE - ego.s;
-                let ego_commits = ego_action.maneuver == Maneuver::Proceed
-                    && ego_to_zone > 0.0
-                    && ego_to_zone < self.params.tier3.commit_horizon_s * ego.v.max(0.1);
+                // The ego commits when its motion (speed and acceleration)
+                // brings it into the zone within the commit horizon.
+                let approach = EgoApproach::new(-HALF_ZONE - ego.s, ego);
+                let ego_commits = approach.to_conflict > 0.0
+                    && ego.v > 1.0
+                    && approach.eta(self.params.episode.speed_limit_mps) < self.params.tier3.commit_horizon_s;
                 let at_floor = self.other.v <= self.params.tier3.floor_speed_mps;
                 if !self.revealed && (ego_commits || at_floor) {
                     self.revealed = true;
@@ -269,16 +272,16 @@ impl World for YieldWorld {
         Scene::YieldStandoff { ego_to_conflict_m: -HALF_ZONE - ego.s, other: self.history.track(now) }
     }
 
-    fn disposition(&self) -> Disposition {
-        self.disposition
-    }
-
     fn revealed(&self) -> bool {
         self.revealed
     }
 
-    fn resolved(&self, ego: &Body) -> bool {
-        ego.s > -HALF_ZONE || self.other.s > -HALF_ZONE
+    fn ego_to_conflict(&self, ego: &Body) -> f64 {
+        -HALF_ZONE - ego.s
+    }
+
+    fn other_entered(&self) -> bool {
+        self.other.s > -HALF_ZONE
     }
 
     fn cuts_off(&self, ego: &Body) -> bool {
@@ -295,4 +298,37 @@ impl World for YieldWorld {
     fn plan(&self, ego: &Body) -> Vec<PlanPoint> {
         vec![PlanPoint { x: 0.0, y: ego.s, v: ego.v }, PlanPoint { x: self.other.s, y: 0.0, v: self.other.v }]
     }
+}
+
+// --- Baseline rules for this scenario (read only the public observation) ---
+
+/// Conflict-zone depth: a crossing car has fully cleared below minus this.
+const CONFLICT_ZONE_M: f64 = 6.7;
+/// Where the expert waits: this far before the conflict zone.
+const WAIT_GAP_M: f64 = 3.0;
+
+/// Whether a car track has been at rest for the last half second.
+fn at_rest(t: &Track) -> bool {
+    t.now.velocity_mps <= 0.1 && t.past[t.past.len() - 1].velocity_mps <= 0.1
+}
+
+/// Whether a crossing car has left the conflict zone behind.
+fn crossed(t: &Track) -> bool {
+    t.now.position_m < -CONFLICT_ZONE_M - 0.5
+}
+
+/// The expert: go once the other car has stopped or crossed; until then keep
+/// a stop before the zone possible and let it go first.
+pub(crate) fn expert(v: f64, _v_max: f64, d: f64, other: &Track) -> Action {
+    if d < 0.5 || crossed(other) || (at_rest(other) && other.now.position_m > 0.0) {
+        go()
+    } else {
+        hedge(v, d - WAIT_GAP_M)
+    }
+}
+
+/// The cue follower: go as soon as the other car brakes.
+pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, other: &Track) -> Action {
+    let braking = other.recent_accel() < -0.3 || other.now.velocity_mps <= 0.1;
+    if d < 0.5 || crossed(other) || braking { go() } else { hedge(v, d - WAIT_GAP_M) }
 }

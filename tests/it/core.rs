@@ -67,8 +67,8 @@ fn golden_vectors_pin_trajectories() {
     ];
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.9 ego (0.0000, 21.0809) v 12.0000 other (-8.0204, 0.0000) v 2.3872 reward 0.991416 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 40 t 20.0 ego (0.0000, -21.3448) v 0.0000 other (87.8439, 0.0000) v 11.7773 reward -0.210055 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.7 ego (20.8623, 0.0000) v 12.0000 other (0.0000, -1.9013) v 0.0000 reward 0.989250 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 40 t 20.0 ego (-25.9403, 0.0000) v 0.0000 other (0.0000, 6.8295) v 0.0000 reward -0.200122 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 2.7515) v 2.5000 reward -0.152324 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (12.5254, 0.0000) v 12.7000 reward -1.000000 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 40 t 20.0 ego (0.4020, -3.4531) v 0.0000 other (102.4303, 0.0000) v 11.7765 reward -0.270144 dc 0.000");
 }
@@ -169,7 +169,7 @@ fn tiers_bite_check_catches_a_toothless_bluff() {
 #[test]
 fn solvable_check_catches_an_impossible_budget() {
     let mut set = ScenarioSet::default();
-    let text = include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = 40", "turn_budget = 8");
+    let text = include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = 18", "turn_budget = 4");
     set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
     assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
 }
@@ -188,6 +188,138 @@ fn reward_ordering_and_correctness_checks_catch_inversions() {
     let j = cells.iter().position(|c| c.cell.policy == PolicyKind::AlwaysStop).unwrap();
     cells[j].decision_correctness.estimate = 0.9;
     assert!(!validate::check_correctness(&cells).pass);
+}
+
+// --- evidence, commitment, correctness, blind play ----------------------------
+
+/// The evidence turn is the first turn whose observation differs from a
+/// replay of the same seed and actions under the other disposition.
+#[test]
+fn evidence_turn_is_the_first_observation_that_differs_under_the_other_disposition() {
+    let set = ScenarioSet::default();
+    let creep = Action::new(Maneuver::NudgeForward, 0.5);
+    for (kind, tier) in [(ScenarioKind::YieldStandoff, Tier::T2), (ScenarioKind::PedestrianFeint, Tier::T1)] {
+        let [d0, d1] = kind.dispositions();
+        for seed in 0..20 {
+            let mut a = Episode::with_disposition(set.get(kind), tier, seed, d0);
+            let mut b = Episode::with_disposition(set.get(kind), tier, seed, d1);
+            let mut first_difference = None;
+            while !a.is_done() {
+                if first_difference.is_none() && (b.is_done() || a.observation().rounded() != b.observation().rounded())
+                {
+                    first_difference = Some(a.observation().turn);
+                }
+                a.step(creep);
+                b.step(creep);
+            }
+            let record = a.finish();
+            assert_eq!(record.timing.evidence_turn, first_difference, "{kind}/t{tier} seed {seed}");
+        }
+    }
+}
+
+/// Correctness reads the ego's motion: driving through under a `yield`
+/// label is a go, and a collision never counts as a correct choice.
+#[test]
+fn correctness_reads_motion_not_the_label() {
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::YieldStandoff);
+    let seed = (0..200)
+        .find(|&s| {
+            let spec = EpisodeSpec { scenario: ScenarioKind::YieldStandoff, tier: Tier::T1, seed: s };
+            draw_disposition(spec) == negotiator::scenario::Disposition::Committed
+        })
+        .unwrap();
+    // Full throttle for four turns, then a "yield" label at the softest
+    // braking: the car still enters the zone at speed.
+    let mut ep = Episode::new(config, Tier::T1, seed);
+    let mut turn = 0;
+    while !ep.is_done() {
+        let a = if turn < 4 { Action::new(Maneuver::Proceed, 1.0) } else { Action::new(Maneuver::Yield, 0.0) };
+        ep.step(a);
+        turn += 1;
+    }
+    let r = ep.finish();
+    assert_eq!(r.timing.choice, Some(negotiator::episode::Choice::Go));
+    assert_eq!(r.grades.decision_correctness, 0.0, "a go against a committed car is wrong, whatever the label");
+    // Stopping at once and staying put lets the committed car through: a give way.
+    let mut ep = Episode::new(config, Tier::T1, seed);
+    while !ep.is_done() {
+        ep.step(Action::new(Maneuver::Stop, 1.0));
+    }
+    let r = ep.finish();
+    assert_eq!(r.timing.choice, Some(negotiator::episode::Choice::GiveWay));
+    assert_eq!((r.outcome, r.grades.decision_correctness), (Outcome::Timeout, 1.0));
+}
+
+/// Other road users react to the ego's motion only: two action sequences
+/// that move the ego identically (a stopped car labelled `yield` or `stop`)
+/// give the same episode.
+#[test]
+fn other_road_users_never_see_the_label() {
+    let set = ScenarioSet::default();
+    for kind in ScenarioKind::ALL {
+        for tier in Tier::ALL {
+            let play = |label: Maneuver| {
+                let mut ep = Episode::new(set.get(kind), tier, 5);
+                ep.record_trajectory();
+                let mut turn = 0;
+                while !ep.is_done() {
+                    let a = if turn < 6 { Action::new(Maneuver::Stop, 1.0) } else { Action::new(label, 1.0) };
+                    ep.step(a);
+                    turn += 1;
+                }
+                ep.finish().trajectory
+            };
+            assert_eq!(play(Maneuver::Yield), play(Maneuver::Stop), "{kind}/t{tier}");
+        }
+    }
+}
+
+/// The two blind plays the scenario design names, built by hand, lose on
+/// the pedestrian scenario: racing (full throttle) and outwaiting (creep to
+/// the crosswalk, hold, then go).
+#[test]
+fn racing_and_outwaiting_lose_on_the_pedestrian_scenario() {
+    use negotiator::adversary::{BlindPlan, evaluate};
+    let set = ScenarioSet::default();
+    let seeds: Vec<u64> = (0..120).collect();
+    let race = BlindPlan::Schedule(vec![2]);
+    let outwait = BlindPlan::CreepHoldGo { approach: 4, distance_m: 2.0, hold: 10, hold_turns: 6, go: 2 };
+    for tier in Tier::ALL {
+        let config = set.get(ScenarioKind::PedestrianFeint);
+        let cells = grid(&set, &[ScenarioKind::PedestrianFeint], &[tier], 120);
+        let expert = cells.iter().find(|c| c.cell.policy == PolicyKind::Expert).unwrap().success.estimate;
+        for plan in [&race, &outwait] {
+            let blind = evaluate(config, tier, plan, &seeds).success;
+            assert!(
+                expert - blind >= validate::ANTI_GAMING_MARGIN,
+                "t{tier}: {plan} wins {blind:.3} vs expert {expert:.3}"
+            );
+        }
+    }
+}
+
+/// The search finds a blind win that a scenario change re-opens: a waiting
+/// pedestrian with endless patience can be outwaited, and the blind-play
+/// check then fails; on the built-in scenario it passes.
+#[test]
+fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
+    let check = |set: &ScenarioSet| {
+        let cells = grid(set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 100);
+        let blind = validate::search_blind(set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 0..100, 20_000);
+        validate::check_blind_play_loses(&cells, &blind)
+    };
+    let honest = check(&ScenarioSet::default());
+    assert!(honest.pass, "{}", honest.figure);
+    let text = include_str!("../../scenarios/pedestrian_feint.toml")
+        .replace("turn_budget = 18", "turn_budget = 40")
+        .replace("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative");
+    assert!(text.contains("[19.0, 20.0]"), "the planted change did not apply");
+    let mut set = ScenarioSet::default();
+    set.replace(ScenarioConfig::from_toml("patient.toml", &text).unwrap());
+    let planted = check(&set);
+    assert!(!planted.pass, "{}", planted.figure);
 }
 
 // --- properties ---------------------------------------------------------------

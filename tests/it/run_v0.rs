@@ -75,41 +75,37 @@ fn the_v0_fixture_loads_with_every_episode_and_no_missing_one() {
     assert_eq!(data.runs[0].shard.as_deref(), Some("1/1"));
 }
 
-/// `eval` resumes a version-0 run directory: nothing is re-run, the
-/// selection can be extended, the new lines and run.json carry the current
-/// schema version, and `report` reads the mixed file.
+/// `eval` refuses to resume a version-0 run written with other scenario
+/// parameters (the built-in scenarios have changed since): the refusal names
+/// the changed field and touches nothing. A new run of the current version
+/// beside it, and the old run, are read by one `report`.
 #[test]
-fn eval_resumes_a_v0_run_and_report_reads_the_mixed_file() {
+fn eval_refuses_a_changed_v0_run_and_report_reads_old_and_new_runs() {
     let server = crate::serve::Server::start(&["--policy", "expert"]);
     let root = scratch("resume-v0");
     copy_run("expert", &root.join("expert"));
     let before = std::fs::read(root.join("expert/rollouts.jsonl")).unwrap();
-    let eval = |seeds: &str| {
-        let out = negotiator()
+    let eval = |name: &str| {
+        negotiator()
             .args(["eval", "--base-url", &server.base_url(), "--model", "expert", "--quiet", "--output"])
             .arg(&root)
-            .args(["--run-name", "expert", "--scenario", "all", "--tier", "all", "-r", "2", "-n", seeds])
+            .args(["--run-name", name, "--scenario", "all", "--tier", "all", "-r", "2", "-n", "3"])
             .args(["--no-trajectories", "-c", "4"])
             .output()
-            .unwrap();
-        assert!(out.status.success(), "exit {:?}: {}", out.status.code(), String::from_utf8_lossy(&out.stderr));
-        String::from_utf8(out.stdout).unwrap()
+            .unwrap()
     };
-    // The same selection: everything is already there.
-    let stdout = eval("3");
-    assert!(stdout.contains("54 episodes scored, 0 missing"), "{stdout}");
-    assert_eq!(std::fs::read(root.join("expert/rollouts.jsonl")).unwrap(), before, "nothing re-run");
-    let run = json(&root.join("expert/run.json"));
-    assert_eq!(run["schema_version"], negotiator::rundir::SCHEMA_VERSION);
-    assert_eq!((run["invocations"].as_u64(), run["last_invocation"]["status"].as_str()), (Some(2), Some("finished")));
-    // One more seed: 3 scenarios x 3 tiers x 2 rollouts new lines, versioned.
-    let stdout = eval("4");
-    assert!(stdout.contains("72 episodes scored, 0 missing"), "{stdout}");
-    let text = std::fs::read_to_string(root.join("expert/rollouts.jsonl")).unwrap();
-    assert!(text.as_bytes().starts_with(&before));
-    let new: Vec<serde_json::Value> = text[before.len()..].lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    assert_eq!(new.len(), 18);
-    assert!(new.iter().all(|l| l["schema_version"] == negotiator::rundir::SCHEMA_VERSION && l["seed"] == 3));
+    let refused = eval("expert");
+    assert_eq!(refused.status.code(), Some(2), "{}", String::from_utf8_lossy(&refused.stderr));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("scenarios_hash"));
+    assert_eq!(std::fs::read(root.join("expert/rollouts.jsonl")).unwrap(), before, "nothing touched");
+    let fresh = eval("expert-now");
+    assert!(fresh.status.success(), "{}", String::from_utf8_lossy(&fresh.stderr));
+    let text = std::fs::read_to_string(root.join("expert-now/rollouts.jsonl")).unwrap();
+    let new: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(new.len(), 54);
+    assert!(new.iter().all(|l| l["schema_version"] == negotiator::rundir::SCHEMA_VERSION));
+    // The evidence timing is in every new line.
+    assert!(new.iter().all(|l| l.get("evidence_turn").is_some() && l.get("commitment_turn").is_some()));
 
     let out = root.join("report");
     let report = negotiator()
@@ -117,11 +113,14 @@ fn eval_resumes_a_v0_run_and_report_reads_the_mixed_file() {
         .arg("--out")
         .arg(&out)
         .arg(root.join("expert"))
+        .arg(root.join("expert-now"))
         .output()
         .unwrap();
     assert!(report.status.success(), "{}", String::from_utf8_lossy(&report.stderr));
     let report = json(&out.join("report.json"));
-    assert_eq!(report["models"][0]["episodes"], 72);
-    assert_eq!(report["runs"][0]["bad_lines"], 0);
+    let models = report["models"].as_array().unwrap();
+    assert_eq!(models.len(), 2, "two configurations, two rows");
+    assert!(models.iter().all(|m| m["episodes"] == 54));
+    assert!(report["runs"].as_array().unwrap().iter().all(|r| r["bad_lines"] == 0));
     let _ = std::fs::remove_dir_all(&root);
 }
