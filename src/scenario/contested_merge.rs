@@ -103,16 +103,16 @@ impl MergeParams {
         c.within("lane.open_decel_mps2", self.lane.open_decel_mps2, 0.3, 6.0)?;
         c.within("lane.deny_extra_mps", self.lane.deny_extra_mps, 0.0, 10.0)?;
         c.within("lane.open_gap_m", self.lane.open_gap_m, 0.0, 50.0)?;
-        c.non_negative("lane.patience_s", self.lane.patience_s)?;
+        c.within("lane.patience_s", self.lane.patience_s, 0.0, 60.0)?;
         c.within("idm.accel", self.idm.accel, 0.3, 5.0)?;
         c.within("idm.brake", self.idm.brake, 0.5, 8.0)?;
         c.within("idm.headway", self.idm.headway, 0.1, 5.0)?;
         c.within("idm.min_gap", self.idm.min_gap, 0.0, 20.0)?;
         c.within("idm.max_brake", self.idm.max_brake, self.idm.brake, 12.0)?;
-        c.non_negative("tier2.position_noise_m", self.tier2.position_noise_m)?;
-        c.non_negative("tier2.speed_noise_mps", self.tier2.speed_noise_mps)?;
+        c.within("tier2.position_noise_m", self.tier2.position_noise_m, 0.0, 10.0)?;
+        c.within("tier2.speed_noise_mps", self.tier2.speed_noise_mps, 0.0, 5.0)?;
         c.within("tier3.floor_fraction", self.tier3.floor_fraction, 0.0, 1.0)?;
-        c.non_negative("tier3.hold_s", self.tier3.hold_s)?;
+        c.within("tier3.hold_s", self.tier3.hold_s, 0.0, 60.0)?;
         c.within("tier3.commit_horizon_s", self.tier3.commit_horizon_s, 0.1, 5.0)?;
         c.within("tier3.close_accel_mps2", self.tier3.close_accel_mps2, 0.5, 6.0)
     }

@@ -46,6 +46,35 @@ impl ScenarioKind {
         }
     }
 
+    /// How the plan view of this scenario is read (for trajectory plots):
+    /// which coordinate is each road user's progress along its path, what
+    /// the other road user is called, and where position 0 is.
+    pub fn plan_axes(self) -> PlanAxes {
+        match self {
+            ScenarioKind::YieldStandoff => PlanAxes {
+                ego_along_y: true,
+                others_along_y: false,
+                other_name: "other car",
+                zero_label: "crossing centre",
+                shared_axis: true,
+            },
+            ScenarioKind::PedestrianFeint => PlanAxes {
+                ego_along_y: false,
+                others_along_y: true,
+                other_name: "pedestrian",
+                zero_label: "crosswalk",
+                shared_axis: false,
+            },
+            ScenarioKind::ContestedMerge => PlanAxes {
+                ego_along_y: false,
+                others_along_y: false,
+                other_name: "lane car",
+                zero_label: "taper start",
+                shared_axis: true,
+            },
+        }
+    }
+
     pub fn from_scene_name(name: &str) -> Option<ScenarioKind> {
         ScenarioKind::ALL.into_iter().find(|k| k.scene_name() == name)
     }
@@ -73,6 +102,29 @@ impl ScenarioKind {
 impl fmt::Display for ScenarioKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// The plan-view reading of a scenario (see [`ScenarioKind::plan_axes`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlanAxes {
+    /// The ego progresses along y (else x).
+    pub ego_along_y: bool,
+    /// The other road users progress along y (else x).
+    pub others_along_y: bool,
+    pub other_name: &'static str,
+    /// What position 0 along the paths is.
+    pub zero_label: &'static str,
+    /// Whether the ego's and the others' progress share one axis (the
+    /// pedestrian's lateral position does not).
+    pub shared_axis: bool,
+}
+
+impl PlanAxes {
+    /// Progress of the ego (`ego`) or another road user along its path.
+    pub fn along(&self, p: &world::PlanPoint, ego: bool) -> f64 {
+        let along_y = if ego { self.ego_along_y } else { self.others_along_y };
+        if along_y { p.y } else { p.x }
     }
 }
 
@@ -240,9 +292,6 @@ pub(crate) struct FieldCheck<'a> {
 }
 
 impl FieldCheck<'_> {
-    pub fn non_negative(&self, field: &str, x: f64) -> Result<(), ScenarioError> {
-        if x.is_finite() && x >= 0.0 { Ok(()) } else { Err(self.err(field, format!("must be a number >= 0, got {x}"))) }
-    }
     pub fn within(&self, field: &str, x: f64, lo: f64, hi: f64) -> Result<(), ScenarioError> {
         if x.is_finite() && x >= lo && x <= hi {
             Ok(())
@@ -471,11 +520,6 @@ impl ScenarioSet {
     pub fn get(&self, kind: ScenarioKind) -> &ScenarioConfig {
         &self.configs[kind as usize]
     }
-
-    /// True when no built-in scenario was replaced.
-    pub fn is_builtin(&self) -> bool {
-        *self == ScenarioSet::default()
-    }
 }
 
 /// Key from which every random stream of an episode is derived.
@@ -508,6 +552,14 @@ mod tests {
         let text = BUILTIN[0].1.replace("turn_budget = 40", "turn_budget = 400");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: turn_budget: must be 1..=40"), "{e}");
+    }
+
+    #[test]
+    fn every_magnitude_has_an_upper_bound() {
+        let text = BUILTIN[2].1.replace("position_noise_m = 1.5", "position_noise_m = 1e30");
+        assert_ne!(text, BUILTIN[2].1, "the planted value did not apply");
+        let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
+        assert!(e.starts_with("x.toml: tier2.position_noise_m: must lie in [0, 10]"), "{e}");
     }
 
     #[test]

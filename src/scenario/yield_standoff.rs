@@ -82,7 +82,7 @@ impl YieldParams {
         c.range_within("other.cruise_speed_mps", self.other.cruise_speed_mps, 1.0, 25.0)?;
         c.range_within("other.arrival_offset_s", self.other.arrival_offset_s, -5.0, 5.0)?;
         c.within("other.stop_line_m", self.other.stop_line_m, 0.5, 10.0)?;
-        c.non_negative("other.patience_s", self.other.patience_s)?;
+        c.within("other.patience_s", self.other.patience_s, 0.0, 60.0)?;
         c.within("other.go_accel_mps2", self.other.go_accel_mps2, 0.5, 5.0)?;
         c.range_within("tier2.reveal_distance_m", self.tier2.reveal_distance_m, 5.0, 100.0)?;
         c.range_within("tier3.stop_time_factor", self.tier3.stop_time_factor, 1.0, 4.0)?;

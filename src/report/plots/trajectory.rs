@@ -61,19 +61,9 @@ pub(crate) fn plots(input: &PlotInput) -> Vec<Plot> {
 
 /// Along-path coordinates (ego, others) at one trajectory point.
 fn along(scenario: ScenarioKind, agents: &[crate::scenario::world::PlanPoint]) -> (f64, Vec<f64>) {
-    let ego = agents.first().map_or(0.0, |a| match scenario {
-        ScenarioKind::YieldStandoff => a.y,
-        _ => a.x,
-    });
-    let others = agents
-        .iter()
-        .skip(1)
-        .map(|a| match scenario {
-            ScenarioKind::PedestrianFeint => a.y,
-            _ => a.x,
-        })
-        .collect();
-    (ego, others)
+    let axes = scenario.plan_axes();
+    let ego = agents.first().map_or(0.0, |a| axes.along(a, true));
+    (ego, agents.iter().skip(1).map(|a| axes.along(a, false)).collect())
 }
 
 struct Scale {
@@ -133,20 +123,12 @@ impl Figure<'_> {
 }
 
 fn other_name(scenario: ScenarioKind) -> &'static str {
-    match scenario {
-        ScenarioKind::YieldStandoff => "other car",
-        ScenarioKind::PedestrianFeint => "pedestrian",
-        ScenarioKind::ContestedMerge => "lane car",
-    }
+    scenario.plan_axes().other_name
 }
 
 /// What position 0 along the paths is.
 fn zero_label(scenario: ScenarioKind) -> &'static str {
-    match scenario {
-        ScenarioKind::YieldStandoff => "crossing centre",
-        ScenarioKind::PedestrianFeint => "crosswalk",
-        ScenarioKind::ContestedMerge => "taper start",
-    }
+    scenario.plan_axes().zero_label
 }
 
 fn agent_color(k: usize) -> &'static str {
@@ -269,7 +251,7 @@ fn positions(svg: &mut Svg, fig: &Figure, st: &Scale) {
             (p.time_s, e, o)
         })
         .collect();
-    let shared_axis = r.scenario != ScenarioKind::PedestrianFeint;
+    let shared_axis = r.scenario.plan_axes().shared_axis;
     let mut lo = series.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
     let mut hi = series.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
     if shared_axis {
