@@ -491,22 +491,8 @@ impl Driver<'_> {
     /// denominator), start no new episode, and let the ones in flight finish
     /// so that no paid-for work is thrown away. The run then ends as refused.
     fn context_overflow(&mut self, key: EpisodeKey, turn: u32, error: LlmError) {
-        let counters = &self.run.ctx.counters;
-        counters.infra_errors.fetch_add(1, Relaxed);
-        counters.done.fetch_add(1, Relaxed);
-        self.run.invocation.infra_errors += 1;
         let message = error.to_string();
-        let rec = InfraErrorRecord {
-            schema_version: SCHEMA_VERSION,
-            scenario: key.scenario,
-            tier: key.tier,
-            seed: key.seed,
-            rollout: key.rollout,
-            turn,
-            error: message.clone(),
-            at: now_rfc3339(),
-        };
-        let _ = self.run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+        self.record_infra_error(key, turn, &message);
         self.reporter.event(&Event::InfraError { key, turn, error: message });
         if self.drove.fatal.is_none() {
             self.drove.fatal = Some(error);
@@ -514,14 +500,12 @@ impl Driver<'_> {
         self.stop(StopReason::Refused);
     }
 
-    /// An episode whose retries ran out: record it in errors.jsonl, and
-    /// stop starting episodes once too many in a row failed.
-    fn infra_error(&mut self, key: EpisodeKey, turn: u32, message: String) {
+    /// Count an unfinished episode and append it to errors.jsonl.
+    fn record_infra_error(&mut self, key: EpisodeKey, turn: u32, message: &str) {
         let counters = &self.run.ctx.counters;
         counters.infra_errors.fetch_add(1, Relaxed);
         counters.done.fetch_add(1, Relaxed);
         self.run.invocation.infra_errors += 1;
-        self.infra_streak += 1;
         let rec = InfraErrorRecord {
             schema_version: SCHEMA_VERSION,
             scenario: key.scenario,
@@ -529,10 +513,17 @@ impl Driver<'_> {
             seed: key.seed,
             rollout: key.rollout,
             turn,
-            error: message.clone(),
+            error: message.to_string(),
             at: now_rfc3339(),
         };
         let _ = self.run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
+    }
+
+    /// An episode whose retries ran out: record it in errors.jsonl, and
+    /// stop starting episodes once too many in a row failed.
+    fn infra_error(&mut self, key: EpisodeKey, turn: u32, message: String) {
+        self.record_infra_error(key, turn, &message);
+        self.infra_streak += 1;
         self.reporter.event(&Event::InfraError { key, turn, error: message.clone() });
         let outage = StopReason::Outage { streak: self.infra_streak };
         if self.infra_streak >= self.outage_streak && outage.outranks(self.drove.stop) {
