@@ -45,6 +45,10 @@ pub struct ReportArgs {
     /// Transcripts embedded in report.html per (model, scenario, tier).
     #[arg(long, default_value_t = 3)]
     pub transcripts: usize,
+    /// Rank incomplete models (errored or missing episodes, or a scenario
+    /// missing) on the leaderboard too; they stay marked.
+    #[arg(long)]
+    pub include_incomplete: bool,
     /// Print nothing but errors.
     #[arg(long, short = 'q')]
     pub quiet: bool,
@@ -70,6 +74,7 @@ impl ReportArgs {
             resamples: self.resamples,
             seed: self.seed,
             transcripts_per_cell: self.transcripts,
+            include_incomplete: self.include_incomplete,
         })
     }
 

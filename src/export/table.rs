@@ -7,10 +7,16 @@
 use crate::stats::Interval;
 use serde::ser::{Serialize, SerializeMap, SerializeStruct, Serializer};
 
+/// The mark after an incomplete model's name, in every table and figure.
+pub(crate) const INCOMPLETE_MARK: &str = "\u{2020}";
+
 /// One value of a table.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Cell {
     Text(String),
+    /// A model name with a mark: "name †" on display, the name alone in
+    /// the data formats (an incomplete model).
+    Marked(String),
     Int(u64),
     Float(f64),
     /// An estimate with its 95% interval; three CSV columns (`key`,
@@ -47,6 +53,7 @@ impl Cell {
     pub(crate) fn display(&self, style: Style) -> String {
         match (self, style) {
             (Cell::Text(s), _) => s.clone(),
+            (Cell::Marked(s), _) => format!("{s} {INCOMPLETE_MARK}"),
             (Cell::Int(n), _) => n.to_string(),
             (Cell::Float(x), Style::Signed) => format!("{x:+.2}"),
             (Cell::Float(x), Style::Whole) => {
@@ -78,7 +85,7 @@ impl Cell {
             (Cell::Missing | Cell::Unknown | Cell::Blank, _) if style.is_interval() => vec![String::new(); 3],
             (Cell::Float(x), Style::PValue) if x.is_finite() => vec![format!("{x:.6e}")],
             (Cell::Float(x) | Cell::Percent(x), _) => vec![f4(*x)],
-            (Cell::Text(s), _) => vec![s.clone()],
+            (Cell::Text(s) | Cell::Marked(s), _) => vec![s.clone()],
             (Cell::Int(n), _) => vec![n.to_string()],
             (Cell::WithParen(a, _), _) => a.csv_fields(style),
             (Cell::Missing | Cell::Unknown | Cell::Blank, _) => vec![String::new()],
@@ -91,7 +98,7 @@ impl Serialize for Cell {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let number = |x: f64| x.is_finite().then_some(x);
         match self {
-            Cell::Text(t) => s.serialize_str(t),
+            Cell::Text(t) | Cell::Marked(t) => s.serialize_str(t),
             Cell::Int(n) => s.serialize_u64(*n),
             Cell::Float(x) | Cell::Percent(x) => number(*x).serialize(s),
             Cell::Interval(i) => {

@@ -15,8 +15,9 @@ use crate::par::par_map;
 use crate::rundir::lines::{read_infra_errors, read_rollouts};
 use crate::rundir::record::{EpisodeKey, EpisodeScalars};
 use crate::rundir::{ERRORS, ROLLOUTS, RUN_JSON, RunDirError, RunInfo, Selection};
+use crate::scenario::Tier;
 use serde::Serialize;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashSet};
 use std::path::{Path, PathBuf};
 
 /// Where an episode's line is, for error messages and for re-reading its
@@ -89,11 +90,15 @@ pub struct ModelData {
     pub runs: Vec<usize>,
     /// Sorted by key; no key twice.
     pub episodes: Vec<Episode>,
-    /// Keys in errors.jsonl with no finished episode (still missing).
-    pub infra_unresolved: usize,
-    /// Episodes of the runs' selections (run.json) not finished; `None`
+    /// Errored: keys in errors.jsonl with no finished episode (a request
+    /// failed after every retry), sorted.
+    pub errored: Vec<EpisodeKey>,
+    /// Missing: keys of the runs' selections (run.json) neither finished nor
+    /// errored (never started: interrupted, token budget), sorted; `None`
     /// when no run.json declares a selection.
-    pub missing: Option<usize>,
+    pub not_run: Option<Vec<EpisodeKey>>,
+    /// Episodes of the runs' selections; `None` without a selection.
+    pub expected: Option<usize>,
     /// Rollouts per seed: the largest declared in run.json, else the most
     /// seen for any seed.
     pub rollouts: u32,
@@ -319,11 +324,12 @@ fn merge_model(
         });
     }
     let finished: HashSet<EpisodeKey> = episodes.iter().map(|e| e.key()).collect();
-    let infra: HashSet<EpisodeKey> =
+    let errored: BTreeSet<EpisodeKey> =
         group.iter().flat_map(|&i| runs[i].infra_keys.iter().copied()).filter(|k| !finished.contains(k)).collect();
     let selections: Vec<&Selection> = group.iter().filter_map(|&i| runs[i].selection.as_ref()).collect();
-    let expected: HashSet<EpisodeKey> = selections.iter().flat_map(|s| s.keys()).collect();
-    let missing = (!selections.is_empty()).then(|| expected.iter().filter(|k| !finished.contains(k)).count());
+    let expected: BTreeSet<EpisodeKey> = selections.iter().flat_map(|s| s.keys()).collect();
+    let not_run = (!selections.is_empty())
+        .then(|| expected.iter().filter(|k| !finished.contains(k) && !errored.contains(k)).copied().collect());
     let declared = selections.iter().map(|s| s.rollouts).max();
     let seen = max_rollouts_seen(&episodes);
     Ok(ModelData {
@@ -332,8 +338,9 @@ fn merge_model(
         config_hash: hash.to_string(),
         runs: group.to_vec(),
         episodes,
-        infra_unresolved: infra.len(),
-        missing,
+        errored: errored.into_iter().collect(),
+        not_run,
+        expected: (!selections.is_empty()).then_some(expected.len()),
         rollouts: declared.unwrap_or(seen).max(seen).max(1),
     })
 }
@@ -348,6 +355,20 @@ fn max_rollouts_seen(sorted: &[Episode]) -> u32 {
         i = j;
     }
     best
+}
+
+impl ModelData {
+    /// Missing (never started) episodes of the selection; `None` without one.
+    pub fn missing(&self) -> Option<usize> {
+        self.not_run.as_ref().map(Vec::len)
+    }
+
+    /// Errored and missing (never started) episodes of the selection within
+    /// `tiers`; missing is `None` without a selection.
+    pub(crate) fn unfinished_in(&self, tiers: &[Tier]) -> (usize, Option<usize>) {
+        let count = |keys: &[EpisodeKey]| keys.iter().filter(|k| tiers.contains(&k.tier)).count();
+        (count(&self.errored), self.not_run.as_deref().map(count))
+    }
 }
 
 pub fn same_unit(a: &Episode, b: &Episode) -> bool {

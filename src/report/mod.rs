@@ -19,7 +19,7 @@ pub mod plots;
 pub mod reference;
 pub mod tables;
 
-use crate::export::{Cell, Column, CsvExporter, Exporter, Format, MarkdownExporter, Table};
+use crate::export::{Cell, Column, CsvExporter, Exporter, Format, INCOMPLETE_MARK, MarkdownExporter, Table};
 use crate::scenario::Tier;
 use load::{Dataset, ModelData, RunSource};
 use paired::PairRow;
@@ -78,6 +78,8 @@ pub struct ReportOptions {
     pub seed: u64,
     /// Transcripts embedded in report.html per (model, scenario, tier).
     pub transcripts_per_cell: usize,
+    /// Rank incomplete models too (they are still marked).
+    pub include_incomplete: bool,
 }
 
 impl Default for ReportOptions {
@@ -90,6 +92,7 @@ impl Default for ReportOptions {
             resamples: MIN_RESAMPLES,
             seed: 0,
             transcripts_per_cell: 3,
+            include_incomplete: false,
         }
     }
 }
@@ -103,6 +106,8 @@ pub struct ModelInfo {
     pub run_dirs: Vec<String>,
     pub episodes: usize,
     pub rollouts_per_seed: u32,
+    /// Why the model is incomplete in the leaderboard scope; `None`: complete.
+    pub incomplete: Option<String>,
 }
 
 /// Everything `report.json` holds.
@@ -180,10 +185,12 @@ pub(crate) const DEFINITIONS: [(&str, &str); 8] = [
          a seed all succeed; only seeds with all r rollouts count, the excluded ones are counted.",
     ),
     (
-        "Infra errors, missing",
-        "Rollouts whose requests failed after every retry (errors.jsonl) are excluded from all scores and counted; \
-         'missing' counts the episodes of the run's selection (run.json) without a finished line. Parse errors are \
-         bad driving and are scored.",
+        "Errored, missing, incomplete",
+        "Errored: rollouts whose requests failed after every retry (errors.jsonl); missing: episodes of the run's \
+         selection (run.json) never started. Both are excluded from all scores and counted. A model with an errored \
+         or missing episode in the leaderboard scope, or without a scenario other models have, is incomplete: marked \
+         \u{2020} in every table and figure and not ranked unless --include-incomplete, because a partial sample is \
+         biased (short episodes finish first). Parse errors are bad driving and are scored.",
     ),
 ];
 
@@ -213,9 +220,16 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     }
     let tiers = scope(&data, opts.tiers.as_deref());
     let mut warnings = data.warnings.clone();
-    let leaderboard = tables::leaderboard(&data.models, &refs, &tiers, opts.resamples, opts.seed);
+    let leaderboard =
+        tables::leaderboard(&data.models, &refs, &tiers, opts.resamples, opts.seed, opts.include_incomplete);
     if leaderboard.scenarios.is_empty() {
         warnings.push(format!("no episode in the leaderboard scope ({}); see the per-tier table", tiers_label(&tiers)));
+    }
+    for r in &leaderboard.rows {
+        if let Some(why) = &r.incomplete {
+            let ranked = if r.rank.is_some() { "ranked anyway" } else { "not ranked (--include-incomplete ranks it)" };
+            warnings.push(format!("{} is incomplete ({why}); marked {INCOMPLETE_MARK}, {ranked}", r.model));
+        }
     }
     // Every other table, the plots and the drill-down follow the leaderboard order.
     data.models.sort_by_key(|m| leaderboard.rows.iter().position(|r| r.model == m.label).unwrap_or(usize::MAX));
@@ -248,6 +262,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
             run_dirs: m.runs.iter().map(|&i| data.runs[i].dir.display().to_string()).collect(),
             episodes: m.episodes.len(),
             rollouts_per_seed: m.rollouts,
+            incomplete: leaderboard.rows.iter().find(|r| r.model == m.label).and_then(|r| r.incomplete.clone()),
         })
         .collect();
     let report = Report {
@@ -284,7 +299,41 @@ impl Report {
         if !self.pass_k.is_empty() {
             t.push(passk::pass_k_table(&self.pass_k, &self.tiers));
         }
+        for table in &mut t {
+            self.mark_incomplete(table);
+        }
         t
+    }
+
+    /// Mark incomplete models' names in the model columns (`model`, and
+    /// `a` / `b` of the paired table): "name †" on display, the name alone
+    /// in CSV and JSON.
+    pub(crate) fn mark_incomplete(&self, table: &mut Table) {
+        let marked: Vec<&str> =
+            self.models.iter().filter(|m| m.incomplete.is_some()).map(|m| m.label.as_str()).collect();
+        if marked.is_empty() {
+            return;
+        }
+        let columns: Vec<usize> = (table.columns.iter().enumerate())
+            .filter(|(_, c)| matches!(c.key.as_deref(), Some("model" | "a" | "b")))
+            .map(|(i, _)| i)
+            .collect();
+        let mut any = false;
+        for row in &mut table.rows {
+            for &i in &columns {
+                if let Cell::Text(name) = &row[i]
+                    && marked.contains(&name.as_str())
+                {
+                    row[i] = Cell::Marked(name.clone());
+                    any = true;
+                }
+            }
+        }
+        if any && table.name != "leaderboard" {
+            table.note(format!(
+                "{INCOMPLETE_MARK}: incomplete model (errored or missing episodes); see the leaderboard."
+            ));
+        }
     }
 
     /// The table named `name` (a CSV file stem: `leaderboard`, `tiers`,
@@ -324,6 +373,7 @@ impl Report {
                 Cell::Int(r.bad_lines as u64),
             ]);
         }
+        self.mark_incomplete(&mut t);
         t
     }
 

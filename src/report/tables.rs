@@ -9,7 +9,7 @@ use super::boot::{cell_seed, clustered_mean_of_means_ci, mean_ci, seed_for};
 use super::load::{Episode, ModelData, same_unit};
 use super::reference::{CEILING, FLOOR, References};
 use crate::episode::Outcome;
-use crate::export::{Cell, Column, Style, Table};
+use crate::export::{Cell, Column, INCOMPLETE_MARK, Style, Table};
 use crate::par::par_map;
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, mean, quantile};
@@ -100,6 +100,13 @@ pub struct LeaderRow {
     /// Decision correctness on `yield_standoff`.
     pub yield_dc: Option<f64>,
     pub episodes: usize,
+    /// Why the model is incomplete in scope (errored or missing episodes of
+    /// its selection, or no episode of a scenario others have); `None`:
+    /// complete.
+    pub incomplete: Option<String>,
+    /// 1-based place on the leaderboard; `None`: not ranked (incomplete,
+    /// without `--include-incomplete`).
+    pub rank: Option<usize>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -161,31 +168,63 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
     );
     let yield_dc =
         cells.iter().flatten().find(|c| c.scenario == ScenarioKind::YieldStandoff).map(|c| c.decision_correctness);
+    let episodes = cells.iter().flatten().map(|c| c.episodes).sum();
+    let absent: Vec<ScenarioKind> =
+        scenarios.iter().zip(&cells).filter(|(_, c)| c.is_none()).map(|(s, _)| *s).collect();
     LeaderRow {
         model: m.label.clone(),
         average,
-        episodes: cells.iter().flatten().map(|c| c.episodes).sum(),
+        incomplete: incompleteness(m, tiers, episodes, &absent),
+        episodes,
         scenarios: cells,
         yield_dc,
+        rank: None,
     }
 }
 
+/// Why a model's scope is incomplete, e.g. "4 of 60 episodes finished (2
+/// errored, 54 missing); no pedestrian_feint", or `None`.
+fn incompleteness(m: &ModelData, tiers: &[Tier], finished: usize, absent: &[ScenarioKind]) -> Option<String> {
+    let (errored, missing) = m.unfinished_in(tiers);
+    let missing = missing.unwrap_or(0);
+    let mut parts = Vec::new();
+    if errored + missing > 0 {
+        parts.push(format!(
+            "{finished} of {} episodes finished ({errored} errored, {missing} missing)",
+            finished + errored + missing
+        ));
+    }
+    if !absent.is_empty() {
+        parts.push(format!("no {}", absent.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(", no ")));
+    }
+    (!parts.is_empty()).then(|| parts.join("; "))
+}
+
+/// The leaderboard; ranked by average success, best first. Incomplete
+/// models are listed after the ranked ones, unranked, unless
+/// `include_incomplete` (a partial sample is biased: the short episodes
+/// finish first).
 pub(crate) fn leaderboard(
     models: &[ModelData],
     refs: &References,
     tiers: &[Tier],
     resamples: usize,
     base: u64,
+    include_incomplete: bool,
 ) -> Leaderboard {
     let scenarios: Vec<ScenarioKind> = ScenarioKind::ALL
         .into_iter()
         .filter(|&s| models.iter().any(|m| m.episodes.iter().any(|e| e.scenario == s && tiers.contains(&e.tier))))
         .collect();
     let mut rows = par_map(models, |m| leader_row(m, &scenarios, tiers, resamples, base));
+    let ranked = |r: &LeaderRow| include_incomplete || r.incomplete.is_none();
     rows.sort_by(|a, b| {
         let key = |r: &LeaderRow| if r.average.estimate.is_finite() { r.average.estimate } else { f64::NEG_INFINITY };
-        key(b).total_cmp(&key(a)).then_with(|| a.model.cmp(&b.model))
+        ranked(b).cmp(&ranked(a)).then(key(b).total_cmp(&key(a))).then_with(|| a.model.cmp(&b.model))
     });
+    for (i, r) in rows.iter_mut().enumerate() {
+        r.rank = ranked(r).then_some(i + 1);
+    }
     let references = [(CEILING, "expert reference"), (FLOOR, "always_proceed floor")]
         .into_iter()
         .map(|(policy, label)| {
@@ -215,6 +254,7 @@ impl Leaderboard {
     /// (`{scenario}_n`), the row kind and the tiers.
     pub(crate) fn table(&self, resamples: usize) -> Table {
         let mut columns = vec![
+            Column::new("rank", "rank"),
             Column::new("model", "model"),
             Column::data("kind"),
             Column::new("avg. [95% CI]", "avg").style(Style::Interval),
@@ -227,27 +267,34 @@ impl Leaderboard {
             Column::new("yield DC", "yield_dc"),
             Column::new("episodes", "episodes"),
             Column::data("tiers"),
+            Column::data("incomplete"),
         ]);
         let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
         let mut t = Table::new("leaderboard", self.title(), columns);
         for r in &self.rows {
-            let mut row = vec![Cell::text(&r.model), Cell::text("model"), Cell::Interval(r.average)];
+            let rank = r.rank.map_or(Cell::Missing, |k| Cell::Int(k as u64));
+            let mut row = vec![rank, Cell::text(&r.model), Cell::text("model"), Cell::Interval(r.average)];
             for c in &r.scenarios {
                 match c {
                     Some(c) => row.extend([Cell::Interval(c.success), Cell::Int(c.seeds as u64)]),
                     None => row.extend([Cell::Missing, Cell::Int(0)]),
                 }
             }
-            row.extend([Cell::opt(r.yield_dc), Cell::Int(r.episodes as u64), Cell::text(&tiers)]);
+            row.extend([
+                Cell::opt(r.yield_dc),
+                Cell::Int(r.episodes as u64),
+                Cell::text(&tiers),
+                r.incomplete.as_ref().map_or(Cell::Blank, Cell::text),
+            ]);
             t.push(row);
         }
         let level = |x: Option<f64>| x.map_or(Cell::Missing, Cell::estimate);
         for r in &self.references {
-            let mut row = vec![Cell::text(&r.label), Cell::text("reference"), level(r.average)];
+            let mut row = vec![Cell::Blank, Cell::text(&r.label), Cell::text("reference"), level(r.average)];
             for x in &r.scenarios {
                 row.extend([level(*x), Cell::Blank]);
             }
-            row.extend([Cell::opt(r.yield_dc), Cell::Blank, Cell::text(&tiers)]);
+            row.extend([Cell::opt(r.yield_dc), Cell::Blank, Cell::text(&tiers), Cell::Blank]);
             t.push(row);
         }
         t.note(format!(
@@ -255,6 +302,18 @@ impl Leaderboard {
              scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: {}.",
             self.reference_source
         ));
+        for r in self.rows.iter().filter(|r| r.incomplete.is_some()) {
+            t.note(format!(
+                "{INCOMPLETE_MARK} {} is incomplete: {}; {}.",
+                r.model,
+                r.incomplete.as_deref().unwrap_or_default(),
+                if r.rank.is_some() {
+                    "ranked anyway (--include-incomplete)"
+                } else {
+                    "not ranked (a partial sample is biased: short episodes finish first; --include-incomplete ranks it)"
+                }
+            ));
+        }
         if self.rows.iter().any(|r| r.scenarios.iter().any(Option::is_none)) {
             t.note(
                 "'-': the model has no episode of that scenario in scope; its average is over the scenarios it has.",
@@ -433,10 +492,11 @@ pub struct CostRow {
     pub parse_error_turns: u64,
     pub parse_error_rate: f64,
     pub episodes_with_parse_errors: usize,
-    /// Rollouts given up as infrastructure errors and never finished.
+    /// Errored: rollouts given up as infrastructure errors (errors.jsonl)
+    /// and never finished.
     pub infra_errors: usize,
-    /// Episodes of the runs' selections not finished (infrastructure
-    /// errors included); `None` without run.json.
+    /// Missing: episodes of the runs' selections neither finished nor
+    /// errored (never started); `None` without run.json.
     pub missing: Option<usize>,
     pub retries: u64,
     pub tokens_per_episode: f64,
@@ -466,8 +526,8 @@ pub(crate) fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
                 parse_error_turns: bad,
                 parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
                 episodes_with_parse_errors: eps.iter().filter(|e| e.parse_error_turns > 0).count(),
-                infra_errors: m.infra_unresolved,
-                missing: m.missing,
+                infra_errors: m.errored.len(),
+                missing: m.not_run.as_ref().map(Vec::len),
                 retries: eps.iter().map(|e| u64::from(e.retries)).sum(),
                 tokens_per_episode: per_ep(&|e| e.tokens as f64),
                 prompt_tokens_per_episode: per_ep(&|e| e.prompt_tokens as f64),
@@ -495,7 +555,7 @@ pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
             Column::data("parse_error_turns"),
             Column::data("parse_error_rate"),
             Column::new("episodes with parse errors", "episodes_with_parse_errors"),
-            Column::new("infra errors", "infra_errors"),
+            Column::new("errored", "infra_errors"),
             Column::new("missing", "missing"),
             Column::new("retries", "retries"),
             Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
@@ -534,8 +594,9 @@ pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
         ]);
     }
     t.note(
-        "Parse errors are bad driving (the turn executed the conservative stop) and count in every score. Infra errors \
-         (errors.jsonl) and missing episodes are excluded from every score; re-running the eval command resumes them.",
+        "Parse errors are bad driving (the turn executed the conservative stop) and count in every score. errored: \
+         requests failed after every retry (errors.jsonl); missing: never started (interrupted, budget). Both are \
+         excluded from every score; re-running the eval command resumes them.",
     );
     t
 }

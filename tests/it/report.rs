@@ -219,7 +219,7 @@ fn shards_of_one_config_are_joined_and_other_configs_kept_apart() {
     let joined = data.models.iter().find(|m| m.config_hash == h).unwrap();
     assert_eq!(joined.runs.len(), 2);
     assert_eq!(joined.episodes.len(), 9);
-    assert_eq!(joined.missing, Some(1));
+    assert_eq!(joined.missing(), Some(1));
     assert!(joined.episodes.windows(2).all(|w| w[0].key() < w[1].key()));
     // Two configurations of one model id are told apart by their hash.
     let labels: Vec<&str> = data.models.iter().map(|m| m.label.as_str()).collect();
@@ -227,7 +227,8 @@ fn shards_of_one_config_are_joined_and_other_configs_kept_apart() {
     assert!(labels.contains(&format!("m ({})", &h7[..8]).as_str()), "{labels:?}");
     let built = report::build_from(data, refs(), &opts()).unwrap();
     let costs = &built.report.costs;
-    assert_eq!(costs.iter().map(|c| c.missing).collect::<Vec<_>>(), vec![Some(1), Some(0)]);
+    // The complete configuration ranks first; the joined one lacks seed 9.
+    assert_eq!(costs.iter().map(|c| c.missing).collect::<Vec<_>>(), vec![Some(0), Some(1)]);
 }
 
 #[test]
@@ -252,7 +253,7 @@ fn pass_k_counts_only_seeds_with_every_rollout() {
     ];
     write_run(&root.join("r3"), &RunSpec { seeds: 4, rollouts: 3, ..spec("m") }, &lines);
     let data = load_dirs(&[root.join("r3")]).unwrap();
-    assert_eq!((data.models[0].rollouts, data.models[0].missing), (3, Some(1)));
+    assert_eq!((data.models[0].rollouts, data.models[0].missing()), (3, Some(1)));
     let built = report::build_from(data, refs(), &opts()).unwrap();
     let rows = &built.report.pass_k;
     let all = rows.iter().find(|r| r.scope == "all").unwrap();
@@ -261,7 +262,11 @@ fn pass_k_counts_only_seeds_with_every_rollout() {
     // pass^1 = mean(2/3, 1, 1/3); pass^2 = mean(1/3, 1, 0); pass^3 = mean(0, 1, 0).
     assert!(close(all.pass[0], 2.0 / 3.0) && close(all.pass[1], 4.0 / 9.0) && close(all.pass[2], 1.0 / 3.0), "{all:?}");
     let table = built.report.render_table("pass_k", Format::Table).unwrap();
-    assert!(table.contains("seeds excluded") && table.contains("m      all             3  3           1"), "{table}");
+    // Seed 3 lacks a rollout, so the model is incomplete (marked).
+    assert!(
+        table.contains("seeds excluded") && table.contains("m \u{2020}    all             3  3           1"),
+        "{table}"
+    );
     // The leaderboard's unit is the seed: success = mean over seeds of the rollout rates.
     let lb = &built.report.leaderboard.rows[0];
     let expected = (2.0 / 3.0 + 1.0 + 1.0 / 3.0 + 1.0) / 4.0;
@@ -334,15 +339,94 @@ fn leaderboard_snapshot() {
     insta::assert_snapshot!(table, @r"
     ### Success rates (tier 1; 95% percentile bootstrap CIs)
 
-    | model | avg. [95% CI] | yield_standoff [95% CI] | pedestrian_feint [95% CI] | contested_merge [95% CI] | yield DC | episodes |
-    |---|---|---|---|---|---|---|
-    | alpha | 0.65 [0.53, 0.78] | 0.90 [0.75, 1.00] | 0.60 [0.40, 0.80] | 0.45 [0.25, 0.65] | 0.82 | 60 |
-    | beta | 0.60 [0.48, 0.73] | 1.00 [1.00, 1.00] | 0.30 [0.10, 0.50] | 0.50 [0.30, 0.70] | 0.82 | 60 |
-    | expert reference | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 |  |
-    | always_proceed floor | 0.50 | 0.50 | 0.50 | 0.50 | 0.50 |  |
+    | rank | model | avg. [95% CI] | yield_standoff [95% CI] | pedestrian_feint [95% CI] | contested_merge [95% CI] | yield DC | episodes |
+    |---|---|---|---|---|---|---|---|
+    | 1 | alpha | 0.65 [0.53, 0.78] | 0.90 [0.75, 1.00] | 0.60 [0.40, 0.80] | 0.45 [0.25, 0.65] | 0.82 | 60 |
+    | 2 | beta | 0.60 [0.48, 0.73] | 1.00 [1.00, 1.00] | 0.30 [0.10, 0.50] | 0.50 [0.30, 0.70] | 0.82 | 60 |
+    |  | expert reference | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 |  |
+    |  | always_proceed floor | 0.50 | 0.50 | 0.50 | 0.50 | 0.50 |  |
 
     Per-scenario CIs resample seeds (10000 resamples); the average's CI resamples seeds jointly across scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: test references.
     ");
+}
+
+#[test]
+fn incomplete_models_are_marked_everywhere_and_not_ranked() {
+    let root = scratch("report-incomplete");
+    let (ys, pf, cm) = (ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge);
+    let all = [ys, pf, cm];
+    // "full": 20 seeds x 3 scenarios, success 0.5. "partial": the same selection, 4 finished (all successes,
+    // no contested_merge), 2 errored, 54 never started.
+    let h = hash("full", None);
+    let full: Vec<String> = all
+        .iter()
+        .flat_map(|&s| (0..20).map(move |seed| (s, seed)))
+        .map(|(s, seed)| {
+            line("full", &h, s, 1, seed, 0, if seed % 2 == 0 { Outcome::Success } else { Outcome::Timeout })
+        })
+        .collect();
+    write_run(&root.join("full"), &RunSpec { seeds: 20, scenarios: &all, ..spec("full") }, &full);
+    let hp = hash("partial", None);
+    let partial: Vec<String> = [(ys, 0), (ys, 1), (pf, 0), (pf, 1)]
+        .iter()
+        .map(|&(s, seed)| line("partial", &hp, s, 1, seed, 0, Outcome::Success))
+        .collect();
+    write_run(&root.join("partial"), &RunSpec { seeds: 20, scenarios: &all, ..spec("partial") }, &partial);
+    let err = |seed: u64| {
+        format!(
+            "{}\n",
+            json!({"schema_version": 2, "scenario": "contested_merge", "tier": 1, "seed": seed, "rollout": 0,
+                              "turn": 1, "error": "HTTP 500", "at": "t"})
+        )
+    };
+    std::fs::write(root.join("partial/errors.jsonl"), [err(0), err(1)].concat()).unwrap();
+
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
+    let r = &built.report;
+    let rows: Vec<(&str, Option<usize>)> = r.leaderboard.rows.iter().map(|r| (r.model.as_str(), r.rank)).collect();
+    // partial's average (1.0) beats full's (0.5), yet it is not ranked.
+    assert_eq!(rows, vec![("full", Some(1)), ("partial", None)]);
+    let why = r.leaderboard.rows[1].incomplete.as_deref().unwrap();
+    assert_eq!(why, "4 of 60 episodes finished (2 errored, 54 missing); no contested_merge");
+    assert!(r.leaderboard.rows[0].incomplete.is_none());
+    let cost = r.costs.iter().find(|c| c.model == "partial").unwrap();
+    assert_eq!((cost.infra_errors, cost.missing), (2, Some(54)));
+    assert!(r.warnings.iter().any(|w| w.starts_with("partial is incomplete (4 of 60") && w.contains("not ranked")));
+    // Marked in every table on display, plain in the data formats.
+    for t in ["leaderboard", "tiers", "outcomes", "errors_cost", "paired", "runs"] {
+        let text = r.render_table(t, Format::Table).unwrap();
+        assert!(text.contains("partial \u{2020}"), "{t}: {text}");
+        assert!(!text.contains("full \u{2020}"), "{t}: {text}");
+        let csv = r.render_table(t, Format::Csv).unwrap();
+        assert!(!csv.contains('\u{2020}'), "{t}: {csv}");
+    }
+    let lb = r.render_table("leaderboard", Format::Table).unwrap();
+    let line_of = |name: &str| lb.lines().find(|l| l.contains(name)).unwrap().to_string();
+    assert!(line_of("full").starts_with("1 "), "{lb}");
+    assert!(line_of("partial").starts_with("- "), "{lb}");
+    let cost_table = r.render_table("errors_cost", Format::Table).unwrap();
+    assert!(cost_table.contains("errored") && cost_table.contains("missing"), "{cost_table}");
+    // And in every figure that names models.
+    for p in r.plots.iter().filter(|p| p.svg.contains(">partial")) {
+        assert!(p.svg.contains("partial \u{2020}"), "{}", p.name);
+    }
+    assert!(r.plots.iter().any(|p| p.svg.contains("partial \u{2020}")));
+
+    // --include-incomplete ranks it (still marked).
+    let with = ReportOptions { include_incomplete: true, ..opts() };
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &with).unwrap();
+    let rows: Vec<(&str, Option<usize>)> =
+        built.report.leaderboard.rows.iter().map(|r| (r.model.as_str(), r.rank)).collect();
+    assert_eq!(rows, vec![("partial", Some(1)), ("full", Some(2))]);
+    assert!(built.report.render_table("leaderboard", Format::Table).unwrap().contains("partial \u{2020}"));
+
+    // The terminal warning.
+    let out = ok(report_cmd(
+        &root.join("out"),
+        &[root.join("full").to_str().unwrap(), root.join("partial").to_str().unwrap()],
+    ));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("warning: partial is incomplete (4 of 60 episodes finished"), "{stderr}");
 }
 
 // ---------------------------------------------------------------------------
@@ -440,7 +524,7 @@ fn end_to_end_report_files_and_offline_html() {
         assert!(dir.join(f).is_file(), "{f} missing");
     }
     let csv = std::fs::read_to_string(dir.join("leaderboard.csv")).unwrap();
-    assert!(csv.starts_with("model,kind,avg,avg_lo,avg_hi,yield_standoff,yield_standoff_lo,"), "{csv}");
+    assert!(csv.starts_with("rank,model,kind,avg,avg_lo,avg_hi,yield_standoff,yield_standoff_lo,"), "{csv}");
     let json: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
     assert_eq!(json["resamples"], 10000);
     assert_eq!(json["leaderboard"]["rows"][0]["model"], "expert");
@@ -449,7 +533,9 @@ fn end_to_end_report_files_and_offline_html() {
     let run: Value =
         serde_json::from_str(&std::fs::read_to_string(root.join("runs/always_proceed/run.json")).unwrap()).unwrap();
     let cost = json["costs"].as_array().unwrap().iter().find(|c| c["model"] == "always_proceed").unwrap();
-    assert_eq!(cost["missing"], run["totals"]["missing"]);
+    // errored + missing (never started) = the run's unfinished episodes.
+    let unfinished = cost["missing"].as_u64().unwrap() + cost["infra_errors"].as_u64().unwrap();
+    assert_eq!(Some(unfinished), run["totals"]["missing"].as_u64());
     let errors = std::fs::read_to_string(root.join("runs/always_proceed/errors.jsonl")).unwrap_or_default();
     assert_eq!(cost["infra_errors"].as_u64().unwrap() as usize > 0, !errors.trim().is_empty());
 

@@ -68,7 +68,7 @@ fn the_v0_fixture_loads_with_every_episode_and_no_missing_one() {
     let data = load::load(&[root.join("expert"), root.join("cue_follower")]).unwrap();
     assert!(data.warnings.is_empty(), "{:?}", data.warnings);
     let models: Vec<(&str, usize, Option<usize>, u32)> =
-        data.models.iter().map(|m| (m.model.as_str(), m.episodes.len(), m.missing, m.rollouts)).collect();
+        data.models.iter().map(|m| (m.model.as_str(), m.episodes.len(), m.missing(), m.rollouts)).collect();
     assert_eq!(models, [("expert", 54, Some(0), 2), ("cue_follower", 54, Some(0), 2)]);
     // Version 0 lines carry no schema_version: read as 0.
     assert!(data.models.iter().flat_map(|m| &m.episodes).all(|e| e.schema_version == 0));

@@ -2,22 +2,22 @@
 //! with the diagonal "decisions convert to outcomes". Points below it are
 //! right calls that did not become successes.
 
-use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Svg, rate_axis_y, text_width};
+use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_y, text_width};
 use crate::export::f2;
 use crate::report::reference::{CEILING, FLOOR};
 use crate::report::tables::tiers_label;
 
 pub(crate) fn plot(input: &PlotInput) -> Plot {
     let lb = input.leaderboard;
-    let models = input.models();
+    let models = input.series();
     let (left, top, size) = (56.0, 40.0, 340.0);
-    let legend_w = models.iter().map(|m| text_width(m, 11.0)).fold(140.0, f64::max) + 40.0;
+    let legend_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(140.0, f64::max) + 40.0;
     let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 60.0);
     let title = format!("Success vs decision correctness ({})", tiers_label(&lb.tiers));
     svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
     frame(&mut svg, left, top, size);
-    points(&mut svg, input, left, top, size);
-    legend(&mut svg, input, left + size + 24.0, top + 6.0);
+    points(&mut svg, input, &models, left, top, size);
+    legend(&mut svg, input, &models, left + size + 24.0, top + 6.0);
     Plot {
         name: "success_vs_correctness".into(),
         title: title.clone(),
@@ -59,9 +59,15 @@ fn frame(svg: &mut Svg, left: f64, top: f64, size: f64) {
     );
 }
 
+/// Marker shapes tell scenarios apart while the colours tell the models
+/// apart (up to 7); beyond that the shapes are the models'.
+fn shape_is_scenario(models: &[Series]) -> bool {
+    models.iter().all(|m| m.shape == 0)
+}
+
 /// The reference policies (hollow), then every model on every scenario
 /// (colour: model, shape: scenario).
-fn points(svg: &mut Svg, input: &PlotInput, left: f64, top: f64, size: f64) {
+fn points(svg: &mut Svg, input: &PlotInput, models: &[Series], left: f64, top: f64, size: f64) {
     let lb = input.leaderboard;
     let at = |dc: f64, s: f64| (left + dc.clamp(0.0, 1.0) * size, top + size - s.clamp(0.0, 1.0) * size);
     // Reference policies, hollow.
@@ -76,6 +82,7 @@ fn points(svg: &mut Svg, input: &PlotInput, left: f64, top: f64, size: f64) {
             }
         }
     }
+    let by_scenario = shape_is_scenario(models);
     for (i, r) in lb.rows.iter().enumerate() {
         for (k, c) in r.scenarios.iter().enumerate() {
             let Some(c) = c else { continue };
@@ -90,20 +97,22 @@ fn points(svg: &mut Svg, input: &PlotInput, left: f64, top: f64, size: f64) {
                 f2(c.success.estimate),
                 f2(c.decision_correctness)
             );
-            svg.marker(k, x, y, 5.0, super::color(i), INK, Some(&tip));
+            let shape = if by_scenario { k } else { models[i].shape };
+            svg.marker(shape, x, y, 5.0, models[i].color, INK, Some(&tip));
         }
     }
 }
 
 /// Models (colour), scenarios (shape), references (hollow), from (lx, y).
-fn legend(svg: &mut Svg, input: &PlotInput, lx: f64, mut y: f64) {
-    for (i, m) in input.models().iter().enumerate() {
-        svg.rect(lx, y - 9.0, 12.0, 10.0, super::color(i), "");
-        svg.text(lx + 17.0, y, m, 11.0, "start", "");
+fn legend(svg: &mut Svg, input: &PlotInput, models: &[Series], lx: f64, mut y: f64) {
+    let by_scenario = shape_is_scenario(models);
+    for m in models {
+        svg.marker(if by_scenario { 1 } else { m.shape }, lx + 6.0, y - 4.0, 5.0, m.color, INK, None);
+        svg.text_tip(lx + 17.0, y, &m.name, 11.0, "start", &m.label);
         y += 16.0;
     }
     y += 8.0;
-    for (k, s) in input.leaderboard.scenarios.iter().enumerate() {
+    for (k, s) in input.leaderboard.scenarios.iter().enumerate().filter(|_| by_scenario) {
         svg.marker(k, lx + 6.0, y - 4.0, 5.0, "#777", INK, None);
         svg.text(lx + 17.0, y, &s.to_string(), 11.0, "start", "");
         y += 16.0;

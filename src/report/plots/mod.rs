@@ -48,10 +48,94 @@ pub struct PlotInput<'a> {
 }
 
 impl PlotInput<'_> {
-    /// Model labels in leaderboard order (their colour is their position).
+    /// Model labels in leaderboard order.
     pub(crate) fn models(&self) -> Vec<&str> {
         self.leaderboard.rows.iter().map(|r| r.model.as_str()).collect()
     }
+
+    /// How each model is drawn, in leaderboard order.
+    pub(crate) fn series(&self) -> Vec<Series> {
+        let labels = self.models();
+        let styles = assign_styles(&labels);
+        self.leaderboard
+            .rows
+            .iter()
+            .zip(styles)
+            .map(|(r, (color, shape))| Series {
+                label: r.model.clone(),
+                name: display_name(&r.model, r.incomplete.is_some()),
+                color,
+                shape,
+            })
+            .collect()
+    }
+}
+
+/// How one model is drawn in every figure.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Series {
+    /// The full label (tooltips, lookups).
+    pub label: String,
+    /// As printed in a figure: shortened in the middle, `†` when incomplete.
+    pub name: String,
+    pub color: &'static str,
+    /// Marker: 0 circle, 1 square, 2 triangle, 3 diamond.
+    pub shape: usize,
+}
+
+/// Longest model name printed in a figure, in characters; longer names are
+/// shortened in the middle (the full name is in the tooltip).
+pub(crate) const NAME_CHARS: usize = 24;
+
+/// `name` shortened to [`NAME_CHARS`] with an ellipsis in the middle (the
+/// start and the end of a model id both tell models apart), then the
+/// incomplete mark.
+pub(crate) fn display_name(name: &str, incomplete: bool) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    let mut s = if chars.len() <= NAME_CHARS {
+        name.to_string()
+    } else {
+        let head = (NAME_CHARS - 1).div_ceil(2);
+        let tail = NAME_CHARS - 1 - head;
+        format!(
+            "{}\u{2026}{}",
+            chars[..head].iter().collect::<String>(),
+            chars[chars.len() - tail..].iter().collect::<String>()
+        )
+    };
+    if incomplete {
+        s.push(' ');
+        s.push_str(crate::export::INCOMPLETE_MARK);
+    }
+    s
+}
+
+/// Okabe-Ito colours (colour-blind safe; Okabe & Ito 2008) without black,
+/// which the references use.
+pub(crate) const OKABE_ITO: [&str; 7] = ["#E69F00", "#56B4E9", "#009E73", "#0072B2", "#D55E00", "#CC79A7", "#F0E442"];
+
+/// (colour, marker shape) per label, stable per model name: a label's
+/// preferred colour is a hash of its name, so the same model keeps its
+/// colour across reports and `--tiers` choices; labels are placed in name
+/// order and a label whose colour is taken moves to the next free
+/// (colour, shape) slot, so up to 7 models differ in colour and up to 28 in
+/// colour or shape (beyond 7 models, shapes vary too).
+pub(crate) fn assign_styles(labels: &[&str]) -> Vec<(&'static str, usize)> {
+    let slots = OKABE_ITO.len() * 4;
+    let mut order: Vec<usize> = (0..labels.len()).collect();
+    order.sort_by_key(|&i| labels[i]);
+    let mut taken = vec![false; slots];
+    let mut out = vec![(OKABE_ITO[0], 0); labels.len()];
+    for (placed, &i) in order.iter().enumerate() {
+        if placed % slots == 0 {
+            taken.iter_mut().for_each(|t| *t = false);
+        }
+        let preferred = (crate::hash::fnv1a64(labels[i]) % OKABE_ITO.len() as u64) as usize;
+        let slot = (0..slots).map(|k| (preferred + k) % slots).find(|&k| !taken[k]).unwrap_or(preferred);
+        taken[slot] = true;
+        out[i] = (OKABE_ITO[slot % OKABE_ITO.len()], slot / OKABE_ITO.len());
+    }
+    out
 }
 
 pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
@@ -64,16 +148,10 @@ pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     plots
 }
 
-/// Ten distinguishable colours (Tableau 10), then repeated.
-const PALETTE: [&str; 10] =
-    ["#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"];
-
-pub(crate) fn color(i: usize) -> &'static str {
-    PALETTE[i % PALETTE.len()]
-}
-
-pub(crate) const CEILING_COLOR: &str = "#2e7d32";
-pub(crate) const FLOOR_COLOR: &str = "#8d5524";
+/// References are neutral, never a model's hue: the expert ceiling black,
+/// the `always_proceed` floor grey (both dashed).
+pub(crate) const CEILING_COLOR: &str = "#000000";
+pub(crate) const FLOOR_COLOR: &str = "#8c8c8c";
 pub(crate) const SUCCESS_COLOR: &str = "#59a14f";
 pub(crate) const COLLISION_COLOR: &str = "#e15759";
 pub(crate) const TIMEOUT_COLOR: &str = "#9e9e9e";
@@ -212,6 +290,20 @@ impl Svg {
         );
     }
 
+    /// Text with a hover tooltip (a shortened name's full form).
+    #[allow(clippy::too_many_arguments)] // the coordinates and style of one primitive
+    pub(crate) fn text_tip(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, tip: &str) {
+        let _ = write!(
+            self.body,
+            "<text x=\"{}\" y=\"{}\" font-size=\"{}\" text-anchor=\"{anchor}\" fill=\"{INK}\"><title>{}</title>{}</text>",
+            n(x),
+            n(y),
+            n(size),
+            esc(tip),
+            esc(s)
+        );
+    }
+
     pub(crate) fn polyline(&mut self, pts: &[(f64, f64)], stroke: &str, width: f64, dash: Option<&str>) {
         if pts.len() < 2 {
             return;
@@ -312,5 +404,32 @@ mod tests {
         assert!(!out.contains("http"));
         assert_eq!((n(-0.01), n(2.25), n(3.0)), ("0".to_string(), "2.3".to_string(), "3".to_string()));
         assert_eq!(tick(0.25), "0.25");
+    }
+
+    #[test]
+    fn long_names_are_shortened_in_the_middle_and_incomplete_ones_marked() {
+        assert_eq!(display_name("gpt-4o", false), "gpt-4o");
+        assert_eq!(display_name("gpt-4o", true), "gpt-4o \u{2020}");
+        let long = "accounts/fireworks/models/llama-v3p1-405b-instruct";
+        let short = display_name(long, false);
+        assert_eq!(short.chars().count(), NAME_CHARS);
+        assert_eq!(short, "accounts/fir\u{2026}5b-instruct");
+    }
+
+    #[test]
+    fn colours_follow_the_name_not_the_rank_and_shapes_vary_beyond_seven() {
+        let a = assign_styles(&["gpt-4o", "claude", "qwen3"]);
+        // Another order and another set keep each model's colour.
+        let b = assign_styles(&["qwen3", "gpt-4o"]);
+        assert_eq!((a[0], a[2]), (b[1], b[0]));
+        let names: Vec<String> = (0..12).map(|i| format!("model-{i}")).collect();
+        let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+        let styles = assign_styles(&refs);
+        let mut distinct = styles.clone();
+        distinct.sort();
+        distinct.dedup();
+        assert_eq!(distinct.len(), 12, "every model has its own (colour, shape)");
+        assert_eq!(styles.iter().filter(|s| s.1 == 0).count(), 7, "7 colours, then shapes");
+        assert!(styles.iter().all(|(c, _)| OKABE_ITO.contains(c) && *c != CEILING_COLOR && *c != FLOOR_COLOR));
     }
 }

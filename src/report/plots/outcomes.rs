@@ -6,10 +6,10 @@ use crate::report::tables::tiers_label;
 use crate::scenario::ScenarioKind;
 
 pub(crate) fn plot(input: &PlotInput) -> Plot {
-    let models = input.models();
+    let models = input.series();
     let scenarios: Vec<ScenarioKind> =
         ScenarioKind::ALL.into_iter().filter(|s| input.outcomes.iter().any(|r| r.scenario == *s)).collect();
-    let label_w = models.iter().map(|m| text_width(m, 11.0)).fold(60.0, f64::max).min(240.0) + 14.0;
+    let label_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(60.0, f64::max) + 14.0;
     let (bar_w, row_h, head_h, top) = (420.0, 18.0, 24.0, 56.0);
     let rows = scenarios.len() as f64 * (head_h + models.len() as f64 * row_h);
     let mut svg = Svg::new(label_w + bar_w + 20.0, top + rows + 16.0);
@@ -24,7 +24,7 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         svg.text(label_w, y + 16.0, &s.to_string(), 12.0, "start", " font-weight=\"bold\"");
         y += head_h;
         for m in &models {
-            if let Some(r) = input.outcomes.iter().find(|r| r.model == *m && r.scenario == *s) {
+            if let Some(r) = input.outcomes.iter().find(|r| r.model == m.label && r.scenario == *s) {
                 let mut x = label_w;
                 for (v, c, l) in [
                     (r.success, SUCCESS_COLOR, "success"),
@@ -32,7 +32,7 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
                     (r.timeout, TIMEOUT_COLOR, "timeout"),
                 ] {
                     let w = if v.is_finite() { v * bar_w } else { 0.0 };
-                    let tip = format!("{m} on {s}: {l} {:.0}% of {} episodes", v * 100.0, r.episodes);
+                    let tip = format!("{} on {s}: {l} {:.0}% of {} episodes", m.label, v * 100.0, r.episodes);
                     svg.rect_tip(x, y + 2.0, w, row_h - 4.0, c, &tip);
                     if w >= 30.0 {
                         svg.text(
@@ -47,7 +47,7 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
                     x += w;
                 }
             }
-            svg.text(label_w - 8.0, y + row_h - 5.0, m, 11.0, "end", "");
+            svg.text_tip(label_w - 8.0, y + row_h - 5.0, &m.name, 11.0, "end", &m.label);
             y += row_h;
         }
     }

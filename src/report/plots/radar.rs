@@ -53,7 +53,7 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
     if axes.len() < 3 {
         return None;
     }
-    let models = input.models();
+    let models = input.series();
     let (cell_w, cell_h, cols) = (300.0, 250.0, 3usize);
     let rows = models.len().div_ceil(cols).max(1);
     let width = cell_w * cols.min(models.len().max(1)) as f64;
@@ -61,8 +61,8 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
     let title = "Success radar per model";
     svg.text(10.0, 20.0, title, 14.0, "start", " font-weight=\"bold\"");
     let mut lx = 10.0;
-    lx += svg.legend_item(lx, 42.0, CEILING_COLOR, "expert", true);
-    svg.legend_item(lx, 42.0, FLOOR_COLOR, "always_proceed", true);
+    lx += svg.legend_item(lx, 42.0, CEILING_COLOR, "expert ceiling (reference)", true);
+    svg.legend_item(lx, 42.0, FLOOR_COLOR, "always_proceed floor (reference)", true);
     let k = axes.len();
     for (i, m) in models.iter().enumerate() {
         let cx = (i % cols) as f64 * cell_w + cell_w / 2.0;
@@ -98,16 +98,18 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
                 svg.polygon(&pts, "none", 0.0, color, Some("5 3"));
             }
         }
-        let vals: Vec<Option<f64>> = axes.iter().map(|a| value_of(input, m, a)).collect();
+        let vals: Vec<Option<f64>> = axes.iter().map(|a| value_of(input, &m.label, a)).collect();
         let pts: Vec<(f64, f64)> = vals.iter().enumerate().map(|(j, v)| point(j, v.unwrap_or(0.0))).collect();
-        svg.polygon(&pts, super::color(i), 0.25, super::color(i), None);
+        svg.polygon(&pts, m.color, 0.25, m.color, None);
         for (j, v) in vals.iter().enumerate() {
             if let Some(v) = v {
                 let (px, py) = pts[j];
-                svg.circle(px, py, 3.0, super::color(i), INK, Some(&format!("{m}, {}: {}", axes[j].label, f2(*v))));
+                let tip = format!("{}, {}: {}", m.label, axes[j].label, f2(*v));
+                svg.marker(m.shape, px, py, 3.0, m.color, INK, Some(&tip));
             }
         }
-        svg.text(cx, cy - radius - 26.0, m, 12.0, "middle", " font-weight=\"bold\"");
+        // Names are shortened to fit the cell, so panel titles never overlap.
+        svg.text_tip(cx, cy - radius - 26.0, &m.name, 12.0, "middle", &m.label);
     }
     Some(Plot {
         name: "radar".into(),

@@ -2,7 +2,7 @@
 //! the ranked mean; the expert ceiling and the `always_proceed` floor are
 //! vertical dashed lines in every panel.
 
-use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_x, text_width};
+use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Series, Svg, rate_axis_x, text_width};
 use crate::export::{f2, with_ci};
 use crate::report::tables::tiers_label;
 use crate::stats::Interval;
@@ -15,10 +15,12 @@ struct Panel {
     values: Vec<Option<Interval>>,
 }
 
-fn dot_whisker(name: &str, title: &str, caption: String, models: &[&str], colors: &[&str], panels: &[Panel]) -> Plot {
-    let label_w = models.iter().map(|m| text_width(m, 11.0)).fold(60.0, f64::max).min(240.0) + 12.0;
+fn dot_whisker(name: &str, title: &str, caption: String, models: &[Series], panels: &[Panel]) -> Plot {
+    let label_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
     let (pw, gap, row_h, top) = (230.0, 26.0, 22.0, 68.0);
-    let width = label_w + panels.len() as f64 * (pw + gap) + 10.0;
+    let axis_label = "success rate (dot: estimate; whisker: 95% percentile bootstrap CI)";
+    // Wide enough for the axis label too (one panel alone is narrower).
+    let width = (label_w + panels.len() as f64 * (pw + gap) + 10.0).max(label_w + text_width(axis_label, 10.0) + 10.0);
     let height = top + models.len() as f64 * row_h + 40.0;
     let mut svg = Svg::new(width, height);
     svg.text(10.0, 18.0, title, 14.0, "start", " font-weight=\"bold\"");
@@ -48,34 +50,27 @@ fn dot_whisker(name: &str, title: &str, caption: String, models: &[&str], colors
             let Some(v) = v else { continue };
             let y = top + (i as f64 + 0.5) * row_h;
             let x = |r: f64| x0 + r.clamp(0.0, 1.0) * pw;
+            let color = models[i].color;
             if v.lo.is_finite() && v.hi.is_finite() {
-                svg.line(x(v.lo), y, x(v.hi), y, colors[i], 2.0, None);
-                svg.line(x(v.lo), y - 4.0, x(v.lo), y + 4.0, colors[i], 1.5, None);
-                svg.line(x(v.hi), y - 4.0, x(v.hi), y + 4.0, colors[i], 1.5, None);
+                svg.line(x(v.lo), y, x(v.hi), y, color, 2.0, None);
+                svg.line(x(v.lo), y - 4.0, x(v.lo), y + 4.0, color, 1.5, None);
+                svg.line(x(v.hi), y - 4.0, x(v.hi), y + 4.0, color, 1.5, None);
             }
-            let tip = format!("{}: {}", models[i], with_ci(v));
-            svg.circle(x(v.estimate), y, 4.5, colors[i], INK, Some(&tip));
+            let tip = format!("{}: {}", models[i].label, with_ci(v));
+            svg.marker(models[i].shape, x(v.estimate), y, 4.5, color, INK, Some(&tip));
         }
     }
     for (i, m) in models.iter().enumerate() {
         let y = top + (i as f64 + 0.5) * row_h + 4.0;
-        svg.text(label_w - 8.0, y, m, 11.0, "end", "");
+        svg.text_tip(label_w - 8.0, y, &m.name, 11.0, "end", &m.label);
     }
-    svg.text(
-        label_w,
-        height - 6.0,
-        "success rate (dot: estimate; whisker: 95% percentile bootstrap CI)",
-        10.0,
-        "start",
-        "",
-    );
+    svg.text(label_w, height - 6.0, axis_label, 10.0, "start", "");
     Plot { name: name.into(), title: title.into(), caption, svg: svg.finish(title) }
 }
 
 pub(crate) fn by_scenario(input: &PlotInput) -> Plot {
     let lb = input.leaderboard;
-    let models = input.models();
-    let colors: Vec<&str> = (0..models.len()).map(super::color).collect();
+    let models = input.series();
     let panels: Vec<Panel> = lb
         .scenarios
         .iter()
@@ -94,15 +89,13 @@ pub(crate) fn by_scenario(input: &PlotInput) -> Plot {
          the expert ceiling and the always_proceed floor (reference levels from separate baseline runs)."
             .into(),
         &models,
-        &colors,
         &panels,
     )
 }
 
 pub(crate) fn ranked_mean(input: &PlotInput) -> Plot {
     let lb = input.leaderboard;
-    let models = input.models();
-    let colors: Vec<&str> = (0..models.len()).map(super::color).collect();
+    let models = input.series();
     let panel = Panel {
         title: "average over scenarios".into(),
         ceiling: lb.references.first().and_then(|r| r.average),
@@ -116,7 +109,6 @@ pub(crate) fn ranked_mean(input: &PlotInput) -> Plot {
          across scenarios. Overlapping whiskers are not a ranking: see the paired comparisons."
             .into(),
         &models,
-        &colors,
         &[panel],
     )
 }

@@ -7,17 +7,17 @@ use crate::report::reference::{CEILING, FLOOR};
 use crate::scenario::{ScenarioKind, Tier};
 
 pub(crate) fn plot(input: &PlotInput) -> Plot {
-    let models = input.models();
+    let models = input.series();
     let scenarios: Vec<ScenarioKind> =
         ScenarioKind::ALL.into_iter().filter(|s| input.tiers.iter().any(|r| r.scenario == *s)).collect();
     let tiers: Vec<Tier> = Tier::ALL.into_iter().filter(|t| input.tiers.iter().any(|r| r.tier == *t)).collect();
-    let (left, top, pw, ph, gap) = (44.0, 46.0, 220.0, 220.0, 40.0);
+    let (left, top, pw, ph, gap) = (64.0, 46.0, 220.0, 220.0, 40.0);
     let width = left + scenarios.len().max(1) as f64 * (pw + gap);
     // Legend rows, wrapped as drawn below.
     let mut legend_rows = 1.0;
     let mut lx = 10.0;
     for m in &models {
-        let w = text_width(m, 11.0) + 30.0;
+        let w = text_width(&m.name, 11.0) + 30.0;
         if lx + w > width - 10.0 && lx > 10.0 {
             legend_rows += 1.0;
             lx = 10.0;
@@ -34,6 +34,8 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         x0 + 20.0 + i * (pw - 40.0) / k
     };
     let y = |v: f64| top + ph - v.clamp(0.0, 1.0) * ph;
+    let mid = top + ph / 2.0;
+    svg.text(16.0, mid, "success rate", 11.0, "middle", &format!(" transform=\"rotate(-90 16 {})\"", super::n(mid)));
     for (p, &s) in scenarios.iter().enumerate() {
         let x0 = left + p as f64 * (pw + gap);
         svg.rect(x0, top, pw, ph, "#fafafa", "");
@@ -50,36 +52,44 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
                 svg.marker(2, px, py, 3.5, "none", color, Some(policy));
             }
         }
+        // Models side by side within a tier so their whiskers do not overlap.
+        let spread =
+            |i: usize| (i as f64 - (models.len() as f64 - 1.0) / 2.0) * 5.0_f64.min(40.0 / models.len() as f64);
         for (i, m) in models.iter().enumerate() {
-            let rows: Vec<_> = input.tiers.iter().filter(|r| r.model == *m && r.scenario == s).collect();
-            let pts: Vec<(f64, f64)> = rows.iter().map(|r| (xs(x0, r.tier), y(r.success.estimate))).collect();
-            svg.polyline(&pts, super::color(i), 2.0, None);
+            let rows: Vec<_> = input.tiers.iter().filter(|r| r.model == m.label && r.scenario == s).collect();
+            let pts: Vec<(f64, f64)> =
+                rows.iter().map(|r| (xs(x0, r.tier) + spread(i), y(r.success.estimate))).collect();
+            svg.polyline(&pts, m.color, 2.0, None);
             for (r, &(px, py)) in rows.iter().zip(&pts) {
-                let tip = format!("{m}, {s} tier {}: {}", r.tier, with_ci(&r.success));
-                svg.circle(px, py, 3.5, super::color(i), INK, Some(&tip));
+                if r.success.lo.is_finite() && r.success.hi.is_finite() {
+                    svg.line(px, y(r.success.lo), px, y(r.success.hi), m.color, 1.4, None);
+                }
+                let tip = format!("{}, {s} tier {}: {}", m.label, r.tier, with_ci(&r.success));
+                svg.marker(m.shape, px, py, 3.5, m.color, INK, Some(&tip));
             }
         }
     }
     // Legend.
     let mut lx = 10.0;
     let mut ly = top + ph + 40.0;
-    for (i, m) in models.iter().enumerate() {
-        if lx + text_width(m, 11.0) + 30.0 > width - 10.0 && lx > 10.0 {
+    for m in &models {
+        if lx + text_width(&m.name, 11.0) + 30.0 > width - 10.0 && lx > 10.0 {
             lx = 10.0;
             ly += 18.0;
         }
-        lx += svg.legend_item(lx, ly, super::color(i), m, false);
+        lx += svg.legend_item(lx, ly, m.color, &m.name, false);
     }
     ly += 18.0;
     let mut lx = 10.0;
-    lx += svg.legend_item(lx, ly, CEILING_COLOR, "expert", true);
-    svg.legend_item(lx, ly, FLOOR_COLOR, "always_proceed", true);
+    lx += svg.legend_item(lx, ly, CEILING_COLOR, "expert ceiling (reference)", true);
+    svg.legend_item(lx, ly, FLOOR_COLOR, "always_proceed floor (reference)", true);
     Plot {
         name: "tier_ladder".into(),
         title: title.into(),
         caption: "Success per tier (1 plain, 2 delayed reveal / delayed step-out / observation noise, 3 bluff / \
                   pause-then-dart / merge bluff). A model that acts on the instantaneous cue falls at tier 3 where \
-                  one that waits for a committed signal holds; dashed: the reference policies on each tier."
+                  one that waits for a committed signal holds. Whiskers: 95% percentile bootstrap CIs over seeds; dashed: \
+                  the reference policies on each tier."
             .into(),
         svg: svg.finish(title),
     }

@@ -56,7 +56,15 @@ pub(crate) fn chosen_episodes<'a>(input: &PlotInput<'a>) -> Vec<&'a Loaded> {
 }
 
 pub(crate) fn plots(input: &PlotInput) -> Vec<Plot> {
-    chosen_episodes(input).into_iter().map(|l| plot(&input.data.models[l.model].label, l)).collect()
+    let series = input.series();
+    chosen_episodes(input)
+        .into_iter()
+        .map(|l| {
+            let label = &input.data.models[l.model].label;
+            let shown = series.iter().find(|s| &s.label == label).map_or(label.as_str(), |s| s.name.as_str());
+            plot(label, shown, l)
+        })
+        .collect()
 }
 
 /// Along-path coordinates (ego, others) at one trajectory point.
@@ -137,7 +145,7 @@ fn agent_color(k: usize) -> &'static str {
 
 /// The figure of one episode: title, plan view on the left; positions,
 /// speeds and maneuvers over a shared time axis on the right; legend.
-fn plot(model: &str, l: &Loaded) -> Plot {
+fn plot(model: &str, shown: &str, l: &Loaded) -> Plot {
     let r = &l.record;
     let trajectory = r.trajectory.as_deref().unwrap_or(&[]);
     let fig = Figure {
@@ -149,7 +157,7 @@ fn plot(model: &str, l: &Loaded) -> Plot {
     let (w, h) = (940.0, 420.0);
     let mut svg = Svg::new(w, h);
     let title = format!(
-        "{model} · {} tier {} seed {}{}: {} {}, {}",
+        "{shown} · {} tier {} seed {}{}: {} {}, {}",
         r.scenario,
         r.tier,
         r.seed,
