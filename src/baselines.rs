@@ -1,6 +1,7 @@
 //! The baseline grid: every built-in policy on every scenario and tier,
 //! summarised per cell with normal-approximation 95% CIs.
 
+use crate::belief::{BeliefMetrics, BeliefSummary};
 use crate::episode::{EpisodeRecord, Outcome, run_episode};
 use crate::export::{self, Column, Style, Table};
 use crate::par::par_map;
@@ -54,6 +55,10 @@ pub struct CellSummary {
     pub guess_rate: Interval,
     pub evidence_lag: Interval,
     pub spans: [RewardSpan; 3],
+    /// The belief metrics of the beliefs the policy stated (see
+    /// [`crate::policy::Policy::belief`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub belief: Option<BeliefSummary>,
 }
 
 impl CellSummary {
@@ -79,6 +84,10 @@ impl CellSummary {
             guess_rate: normal_ci_proportion(guesses.iter().filter(|g| **g).count(), guesses.len()),
             evidence_lag: clamp(normal_ci_mean(&lags), 0.0, f64::INFINITY),
             spans,
+            belief: {
+                let metrics: Vec<BeliefMetrics> = records.iter().filter_map(EpisodeRecord::belief_metrics).collect();
+                (!metrics.is_empty()).then(|| BeliefSummary::of(metrics.iter()))
+            },
         }
     }
 
@@ -121,6 +130,32 @@ pub(crate) fn table(cells: &[CellSummary]) -> Table {
             export::Cell::Interval(c.guess_rate),
             export::Cell::Interval(c.evidence_lag),
         ]);
+    }
+    t
+}
+
+/// The belief table (`baselines --probe belief`): the belief metrics of
+/// every cell's stated beliefs. The expert states the ideal observer's
+/// belief and the cue follower its cue's, as references for a model's.
+pub(crate) fn belief_table(cells: &[CellSummary]) -> Table {
+    let mut columns = vec![
+        Column::new("scenario", "scenario").style(Style::Code),
+        Column::new("tier", "tier"),
+        Column::new("policy", "policy").style(Style::Code),
+        Column::new("n", "n"),
+    ];
+    columns.extend(crate::belief::columns());
+    let mut t = Table::new("baseline_beliefs", "", columns);
+    for c in cells {
+        let Some(b) = &c.belief else { continue };
+        let mut row = vec![
+            export::Cell::text(c.cell.scenario.to_string()),
+            export::Cell::Int(c.cell.tier.number().into()),
+            export::Cell::text(c.cell.policy.to_string()),
+            export::Cell::Int(c.n as u64),
+        ];
+        row.extend(crate::belief::cells(b));
+        t.push(row);
     }
     t
 }

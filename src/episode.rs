@@ -62,6 +62,15 @@ pub struct DecisionRecord {
     /// Whether the go / give-way question was already settled when this
     /// decision was taken.
     pub after_resolution: bool,
+    /// Privileged: the ideal observer's belief that the other road user
+    /// lets the ego pass first, given the observation this decision saw
+    /// (see [`crate::belief`]).
+    #[serde(default = "half")]
+    pub ideal_belief: f64,
+}
+
+fn half() -> f64 {
+    0.5
 }
 
 /// Who entered the conflict first.
@@ -151,9 +160,17 @@ pub struct Episode {
     disposition: Disposition,
     world: Box<dyn World + Send>,
     /// The same seed under the other disposition, driven by the same ego,
-    /// until its observation first differs (the evidence turn).
+    /// until its observation first differs (the evidence turn); on a world
+    /// observed through noise, until the episode ends (the ideal observer
+    /// weighs every reading against it).
     twin: Option<Box<dyn World + Send>>,
     timing: EvidenceTiming,
+    /// The ideal observer: the log-likelihood ratio of the true disposition
+    /// against the other from the noisy readings so far, and whether the
+    /// other disposition has been ruled out.
+    llr: f64,
+    certain: bool,
+    noisy: bool,
     ego: Body,
     start_s: f64,
     goal_s: f64,
@@ -205,20 +222,16 @@ impl Episode {
         // The twin's first observation is taken too, so that its history
         // advances in step with the real world's.
         let twin_scene = twin.observe(&ego);
-        let mut timing = EvidenceTiming::default();
-        let twin_observation = Observation { scene: twin_scene, ..observation };
-        let twin = if twin_observation.rounded() == observation.rounded() {
-            Some(twin)
-        } else {
-            timing.evidence_turn = Some(1);
-            None
-        };
-        Episode {
+        let noisy = !world.noisy_readings().is_empty();
+        let mut episode = Episode {
             spec,
             disposition,
             world,
-            twin,
-            timing,
+            twin: Some(twin),
+            timing: EvidenceTiming::default(),
+            llr: 0.0,
+            certain: false,
+            noisy,
             ego,
             start_s: ego.s,
             goal_s,
@@ -232,7 +245,9 @@ impl Episode {
             decisions: Vec::with_capacity(common.turn_budget.get(tier) as usize),
             trajectory: None,
             tracker: Tracker { min_gap_m: f64::INFINITY, ..Tracker::default() },
-        }
+        };
+        episode.compare_twin(twin_scene);
+        episode
     }
 
     /// Keep plan-view positions at every decision (for trajectory plots).
@@ -299,18 +314,49 @@ impl Episode {
             last_action: self.held,
         };
         if let Some(twin) = self.twin.as_mut() {
-            let twin_obs = Observation { scene: twin.observe(&self.ego), ..self.observation };
-            if twin_obs.rounded() != self.observation.rounded() {
-                self.reveal_now();
-            }
+            let twin_scene = twin.observe(&self.ego);
+            self.compare_twin(twin_scene);
+        }
+    }
+
+    /// Compare the observation about to be shown with the twin's: the
+    /// first difference at printed precision is the evidence turn, and the
+    /// noisy readings update the ideal observer.
+    fn compare_twin(&mut self, twin_scene: crate::observation::Scene) {
+        let Some(twin) = self.twin.as_ref() else { return };
+        self.llr += crate::belief::readings_llr(self.world.noisy_readings(), twin.noisy_readings());
+        let twin_obs = Observation { scene: twin_scene, ..self.observation };
+        if twin_obs.rounded() != self.observation.rounded() {
+            self.reveal_now();
+        }
+        if self.llr == f64::INFINITY {
+            self.rule_out_twin();
         }
     }
 
     /// The observation about to be shown differs from the other
-    /// disposition's: this turn is the evidence turn.
+    /// disposition's: this turn is the evidence turn. Without noise the
+    /// difference rules the other disposition out; with noise only the
+    /// readings' likelihoods weigh it.
     fn reveal_now(&mut self) {
-        self.timing.evidence_turn = Some(self.turn + 1);
+        if self.timing.evidence_turn.is_none() {
+            self.timing.evidence_turn = Some(self.turn + 1);
+        }
+        if !self.noisy {
+            self.rule_out_twin();
+        }
+    }
+
+    fn rule_out_twin(&mut self) {
+        self.certain = true;
         self.twin = None;
+    }
+
+    /// Privileged: the ideal observer's belief, for the observation about
+    /// to be shown, that the other road user lets the ego pass first.
+    pub fn ideal_belief(&self) -> f64 {
+        let p_true = if self.certain { 1.0 } else { crate::belief::posterior_true(self.llr) };
+        if self.disposition.ego_should_go() { p_true } else { 1.0 - p_true }
     }
 
     fn time(&self) -> f64 {
@@ -334,6 +380,7 @@ impl Episode {
             time_s: self.time(),
             action,
             after_resolution: self.timing.first_in.is_some(),
+            ideal_belief: self.ideal_belief(),
         });
         let control = action.control();
         let prev_interval_accel = self.tracker.last_interval_accel;
@@ -387,8 +434,9 @@ impl Episode {
         if self.outcome.is_none() {
             if twin_collided && self.twin.is_some() {
                 // Under the other disposition the same actions ended in a
-                // collision: what the ego sees next differs.
+                // collision: what the ego sees next differs, certainly.
                 self.reveal_now();
+                self.rule_out_twin();
             }
             self.observe();
         }
@@ -488,6 +536,7 @@ impl Episode {
             timing: self.timing,
             decisions: self.decisions,
             trajectory: self.trajectory,
+            stated_beliefs: Vec::new(),
         }
     }
 }
@@ -516,6 +565,33 @@ pub struct EpisodeRecord {
     pub decisions: Vec<DecisionRecord>,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub trajectory: Option<Vec<TrajectoryPoint>>,
+    /// The beliefs an in-process policy stated, one per decision (empty
+    /// when the episode was not played by [`run_episode`]).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub stated_beliefs: Vec<f64>,
+}
+
+impl EpisodeRecord {
+    /// The belief metrics of the stated beliefs (None when none were
+    /// stated).
+    pub fn belief_metrics(&self) -> Option<crate::belief::BeliefMetrics> {
+        if self.stated_beliefs.is_empty() {
+            return None;
+        }
+        let turns: Vec<crate::belief::BeliefTurn> = self
+            .decisions
+            .iter()
+            .zip(&self.stated_beliefs)
+            .map(|(d, &b)| crate::belief::BeliefTurn {
+                turn: d.turn,
+                stated: Some(b),
+                ideal: d.ideal_belief,
+                maneuver: Some(d.action.maneuver),
+                open: !d.after_resolution,
+            })
+            .collect();
+        Some(crate::belief::BeliefMetrics::compute(&turns, self.disposition.ego_should_go(), self.timing.evidence_turn))
+    }
 }
 
 /// Play one whole episode with an in-process policy.
@@ -527,9 +603,13 @@ pub fn run_episode(
 ) -> EpisodeRecord {
     let mut episode = Episode::new(config, tier, seed);
     policy.reset(policy_seed(episode.spec()));
+    let mut beliefs = Vec::new();
     while !episode.is_done() {
         let action = policy.act(episode.observation());
+        beliefs.push(policy.belief(episode.observation(), &action, episode.ideal_belief()));
         episode.step(action);
     }
-    episode.finish()
+    let mut record = episode.finish();
+    record.stated_beliefs = beliefs;
+    record
 }

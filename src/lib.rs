@@ -9,6 +9,7 @@
 //! - [`action`]: the action and its protective parser;
 //! - [`policy`]: the scripted baselines;
 //! - [`episode`]: the environment loop;
+//! - [`belief`]: the belief probe, the ideal observer and the belief metrics;
 //! - [`grading`]: reward, decision correctness, diagnostics;
 //! - [`rng`]: the seeded per-episode random streams;
 //! - `hash`: SplitMix64 and FNV-1a, the only hash functions;
@@ -33,6 +34,7 @@ pub mod action;
 pub mod adversary;
 pub mod atomic;
 pub mod baselines;
+pub mod belief;
 pub mod cli;
 pub mod episode;
 pub mod eval;

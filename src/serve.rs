@@ -26,9 +26,11 @@
 //! `<think>`): driving on a parse error, not an infrastructure failure.
 
 use crate::action::Action;
+use crate::episode::Episode;
 use crate::hash::{fnv1a64, splitmix64, unit_f64};
-use crate::observation::parse_scene;
+use crate::observation::{parse_scene, render_scene};
 use crate::policy::PolicyKind;
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use axum::Router;
 use axum::body::{Body, Bytes};
 use axum::extract::State;
@@ -37,6 +39,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use serde::Deserialize;
 use serde_json::{Value, json};
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -52,6 +55,9 @@ pub(crate) struct ServeConfig {
     pub(crate) rate_limit: Option<f64>,
     pub(crate) drop_rate: f64,
     pub(crate) garbage_rate: f64,
+    /// `--probe belief`: add the policy's belief to every answer; the
+    /// expert's needs its episode found in this index.
+    pub(crate) belief: Option<Arc<EpisodeIndex>>,
 }
 
 /// Counts of what was served (for the shutdown line and tests).
@@ -64,6 +70,9 @@ pub(crate) struct ServeStats {
     pub(crate) dropped: AtomicU64,
     pub(crate) garbage: AtomicU64,
     pub(crate) unparseable_scenes: AtomicU64,
+    /// Belief probe: conversations whose episode the index could not find
+    /// (the expert then states 0.5).
+    pub(crate) unidentified_episodes: AtomicU64,
 }
 
 struct Bucket {
@@ -158,34 +167,136 @@ pub(crate) enum SceneRead {
 }
 
 pub(crate) fn answer(policy: PolicyKind, seed: u64, scene_text: &str) -> Answer {
+    answer_with_belief(policy, seed, scene_text, None).0
+}
+
+/// The answer and, when probing, the stated belief (`ideal`: the ideal
+/// observer's belief for this conversation, None when its episode is not
+/// known; the expert then states 0.5).
+fn answer_with_belief(policy: PolicyKind, seed: u64, scene_text: &str, ideal: Option<f64>) -> (Answer, f64) {
     match parse_scene(scene_text) {
         Ok(obs) => {
             let mut p = policy.build();
             p.reset(splitmix64(seed ^ fnv1a64(scene_text)));
-            Answer {
-                action: p.act(&obs),
+            let action = p.act(&obs);
+            let belief = p.belief(&obs, &action, ideal.unwrap_or(0.5));
+            let answer = Answer {
+                action,
                 reasoning: format!("{policy} policy at turn {} of {}", obs.turn, obs.turn_budget),
                 scene: SceneRead::Readable,
+            };
+            (answer, belief)
+        }
+        Err(e) => {
+            let answer = Answer {
+                action: Action::CONSERVATIVE,
+                reasoning: format!("no readable scene ({e}); stopping"),
+                scene: SceneRead::Unreadable,
+            };
+            (answer, 0.5)
+        }
+    }
+}
+
+/// Finds the episode behind a conversation, so that `serve` can state the
+/// ideal observer's belief (privileged: it needs the seed) from the text
+/// alone. The first scene of every (scenario, tier, seed) in a seed range,
+/// with the built-in scenario parameters, is indexed by its hash; a
+/// conversation's candidates are then replayed with the actions of its
+/// earlier replies, and the one whose every scene renders identically is
+/// the episode. Needs the full history (`eval --history full`, the
+/// default).
+pub(crate) struct EpisodeIndex {
+    set: ScenarioSet,
+    by_first_scene: HashMap<u64, Vec<(ScenarioKind, Tier, u64)>>,
+}
+
+impl std::fmt::Debug for EpisodeIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "EpisodeIndex({} first scenes)", self.by_first_scene.len())
+    }
+}
+
+impl EpisodeIndex {
+    pub(crate) fn build(seeds: std::ops::Range<u64>) -> EpisodeIndex {
+        let set = ScenarioSet::default();
+        let mut by_first_scene: HashMap<u64, Vec<(ScenarioKind, Tier, u64)>> = HashMap::new();
+        for kind in ScenarioKind::ALL {
+            for tier in Tier::ALL {
+                for seed in seeds.clone() {
+                    let episode = Episode::new(set.get(kind), tier, seed);
+                    let text = render_scene(episode.observation());
+                    by_first_scene.entry(fnv1a64(&text)).or_default().push((kind, tier, seed));
+                }
             }
         }
-        Err(e) => Answer {
-            action: Action::CONSERVATIVE,
-            reasoning: format!("no readable scene ({e}); stopping"),
-            scene: SceneRead::Unreadable,
-        },
+        EpisodeIndex { set, by_first_scene }
+    }
+
+    /// The ideal observer's belief at the last scene of a conversation:
+    /// `scenes` are its user messages, `replies` the assistant messages
+    /// between them.
+    pub(crate) fn ideal_belief(&self, scenes: &[&str], replies: &[&str]) -> Option<f64> {
+        let (first, last) = (scenes.first()?, scenes.len() - 1);
+        if replies.len() < last {
+            return None;
+        }
+        'candidates: for &(kind, tier, seed) in self.by_first_scene.get(&fnv1a64(first))? {
+            let mut episode = Episode::new(self.set.get(kind), tier, seed);
+            for (i, scene) in scenes.iter().enumerate() {
+                if episode.is_done() || render_scene(episode.observation()) != *scene {
+                    continue 'candidates;
+                }
+                if i == last {
+                    return Some(episode.ideal_belief());
+                }
+                episode.step(crate::action::parse_action(replies[i]).action);
+            }
+        }
+        None
     }
 }
 
 /// The JSON reply content for an action. Numbers are printed in full
 /// (shortest round-trip form), so the client executes exactly this action.
 pub(crate) fn action_content(action: &Action, reasoning: &str) -> String {
+    action_json(action, reasoning).to_string()
+}
+
+fn action_json(action: &Action, reasoning: &str) -> Value {
     json!({
         "reasoning": reasoning,
         "acceleration": action.acceleration,
         "steering": action.steering,
         "maneuver": action.maneuver.name(),
     })
-    .to_string()
+}
+
+/// The answer to a whole conversation: the policy's action for the last
+/// scene, with its belief added when probing.
+fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRead) {
+    let cfg = &state.config;
+    let text = |role: &str| -> Vec<String> {
+        messages.iter().filter(|m| m.role == role).filter_map(|m| content_text(&m.content)).collect()
+    };
+    let scenes = text("user");
+    let scene = scenes.last().map_or("", String::as_str);
+    let Some(index) = &cfg.belief else {
+        let answer = answer(cfg.policy, cfg.seed, scene);
+        return (action_content(&answer.action, &answer.reasoning), answer.scene);
+    };
+    let replies = text("assistant");
+    let ideal = index.ideal_belief(
+        &scenes.iter().map(String::as_str).collect::<Vec<_>>(),
+        &replies.iter().map(String::as_str).collect::<Vec<_>>(),
+    );
+    if ideal.is_none() {
+        state.stats.unidentified_episodes.fetch_add(1, Ordering::Relaxed);
+    }
+    let (answer, belief) = answer_with_belief(cfg.policy, cfg.seed, scene, ideal);
+    let mut content = action_json(&answer.action, &answer.reasoning);
+    content["belief"] = json!(belief);
+    (content.to_string(), answer.scene)
 }
 
 /// Malformed replies for `--garbage-rate`: each is a parse error for
@@ -269,12 +380,11 @@ async fn chat(State(state): State<Arc<ServeState>>, body: Bytes) -> Response {
         state.stats.garbage.fetch_add(1, Ordering::Relaxed);
         garbage(splitmix64(cfg.seed ^ i))
     } else {
-        let scene = request.messages.iter().rev().find(|m| m.role == "user").and_then(|m| content_text(&m.content));
-        let answer = answer(cfg.policy, cfg.seed, scene.as_deref().unwrap_or(""));
-        if answer.scene == SceneRead::Unreadable {
+        let (content, scene) = reply_content(&state, &request.messages);
+        if scene == SceneRead::Unreadable {
             state.stats.unparseable_scenes.fetch_add(1, Ordering::Relaxed);
         }
-        (Some(action_content(&answer.action, &answer.reasoning)), "stop")
+        (Some(content), "stop")
     };
     let reply = completion(&state, i, &model, content, finish, body.len()).to_string();
     if draw(cfg.seed, i, 3) < cfg.drop_rate {
@@ -404,6 +514,7 @@ mod tests {
             rate_limit: Some(2.0),
             drop_rate: 0.0,
             garbage_rate: 0.0,
+            belief: None,
         });
         assert!(s.rate_limit().is_ok());
         assert!(s.rate_limit().is_ok());

@@ -3,7 +3,7 @@
 
 mod parse;
 
-pub use parse::{ActionParseError, ParsedAction, parse_action};
+pub use parse::{ActionParseError, BeliefParseError, ParsedAction, parse_action, parse_belief};
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

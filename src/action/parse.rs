@@ -155,6 +155,51 @@ pub fn parse_action(text: &str) -> ParsedAction {
     }
 }
 
+/// Why the belief probe's `"belief"` field could not be read. A belief
+/// error never touches the action: it is counted apart, as a probe parse
+/// error.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind", content = "detail", rename_all = "snake_case")]
+pub enum BeliefParseError {
+    /// No JSON object to read the field from (the action parse says why).
+    #[error("no JSON answer to read a belief from")]
+    NoAnswer,
+    #[error("no \"belief\" field")]
+    Missing,
+    #[error("belief is not a number: {value:?}")]
+    NotANumber { value: String },
+    #[error("belief {value} is outside [0, 1]")]
+    OutOfRange { value: String },
+}
+
+/// Read the belief probe's `"belief"` field (a probability in [0, 1]) from
+/// the same JSON object [`parse_action`] reads the action from. Never
+/// panics; a number written as a string is accepted, as for the action.
+pub fn parse_belief(text: &str) -> Result<f64, BeliefParseError> {
+    let scan = scan(text);
+    if scan.answer_region.and_then(non_object_kind).is_some() {
+        return Err(BeliefParseError::NoAnswer);
+    }
+    let fields = scan
+        .candidates
+        .iter()
+        .rev()
+        .find(|fields| fields.iter().any(|(k, _)| key_is(k, "maneuver")))
+        .or(scan.candidates.last())
+        .ok_or(BeliefParseError::NoAnswer)?;
+    let v = lookup(fields, "belief").ok_or(BeliefParseError::Missing)?;
+    let parsed = match v {
+        Val::Num(raw) => raw.parse::<f64>().ok(),
+        Val::Str(s) => s.trim().parse::<f64>().ok(),
+        Val::Null | Val::Other(_) => None,
+    };
+    match parsed {
+        None => Err(BeliefParseError::NotANumber { value: clip(v.text()) }),
+        Some(x) if x.is_finite() && (0.0..=1.0).contains(&x) => Ok(x),
+        Some(_) => Err(BeliefParseError::OutOfRange { value: clip(v.text()) }),
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Field validation
 
@@ -1213,5 +1258,45 @@ mod tests {
             let text: String = chars.into_iter().collect();
             check_invariant(&parse_action(&text))?;
         }
+
+        #[test]
+        fn belief_reads_back_and_never_changes_the_action(
+            (object, action, _) in valid_object(),
+            belief in 0.0f64..=1.0,
+            quoted in any::<bool>(),
+            before in prose(),
+        ) {
+            let value = if quoted { format!("\"{belief}\"") } else { serde_json::json!(belief).to_string() };
+            let with_belief = format!("{before}\n{}, \"belief\": {value}}}", object.trim_end_matches('}'));
+            prop_assert_eq!(parse_belief(&with_belief).map(f64::to_bits), Ok(belief.to_bits()), "{}", with_belief);
+            let p = parse_action(&with_belief);
+            prop_assert_eq!(p.action, action);
+            prop_assert_eq!(&p.errors, &vec![]);
+            prop_assert_eq!(parse_belief(&object), Err(BeliefParseError::Missing));
+        }
+
+        #[test]
+        fn belief_parsing_never_panics(text in any::<String>(), parts in prop::collection::vec(fragment(), 0..30)) {
+            let _ = parse_belief(&text);
+            let _ = parse_belief(&parts.concat());
+        }
+    }
+
+    #[test]
+    fn malformed_beliefs_are_named() {
+        let with = |b: &str| format!("{{\"maneuver\": \"stop\", \"acceleration\": 0.5, \"belief\": {b}}}");
+        assert_eq!(parse_belief(&with("0.25")), Ok(0.25));
+        assert_eq!(parse_belief(&with("\" 1 \"")), Ok(1.0));
+        assert_eq!(parse_belief(&with("1.5")), Err(BeliefParseError::OutOfRange { value: "1.5".into() }));
+        assert_eq!(parse_belief(&with("-0.1")), Err(BeliefParseError::OutOfRange { value: "-0.1".into() }));
+        assert_eq!(parse_belief(&with("NaN")), Err(BeliefParseError::OutOfRange { value: "NaN".into() }));
+        assert_eq!(parse_belief(&with("\"likely\"")), Err(BeliefParseError::NotANumber { value: "likely".into() }));
+        assert_eq!(parse_belief(&with("null")), Err(BeliefParseError::Missing));
+        assert_eq!(parse_belief("I think it will stop"), Err(BeliefParseError::NoAnswer));
+        assert_eq!(parse_belief("[0.5]"), Err(BeliefParseError::NoAnswer));
+        // The action's object is the one read: a belief in a think block or
+        // an earlier draft does not count.
+        let drafted = format!("<think>{}</think> {{\"maneuver\": \"stop\", \"acceleration\": 0}}", with("0.9"));
+        assert_eq!(parse_belief(&drafted), Err(BeliefParseError::Missing));
     }
 }

@@ -2,6 +2,7 @@
 
 use super::parse_list;
 use crate::baselines::{GridSpec, run_grid};
+use crate::belief::Probe;
 use crate::export::Format;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -31,6 +32,11 @@ pub struct BaselinesArgs {
     /// Replace a built-in scenario with this TOML file (repeatable).
     #[arg(long = "scenario-file", value_name = "PATH")]
     pub scenario_files: Vec<PathBuf>,
+    /// `belief`: print the belief-probe table instead (each policy's stated
+    /// belief scored like a model's: the expert states the ideal
+    /// observer's, the cue follower its cue's, random a uniform draw).
+    #[arg(long, default_value = "none", value_parser = |s: &str| s.parse::<Probe>())]
+    pub probe: Probe,
 }
 
 impl BaselinesArgs {
@@ -54,7 +60,11 @@ impl BaselinesArgs {
         };
         let set = ScenarioSet::with_overrides(&self.scenario_files)?;
         let cells = run_grid(&set, &spec, &|_, _| {});
-        let text = self.format.exporter().render(&crate::baselines::table(&cells));
+        let table = match self.probe {
+            Probe::None => crate::baselines::table(&cells),
+            Probe::Belief => crate::baselines::belief_table(&cells),
+        };
+        let text = self.format.exporter().render(&table);
         let mut out = std::io::stdout().lock();
         out.write_all(text.as_bytes())?;
         Ok(ExitCode::SUCCESS)

@@ -10,6 +10,7 @@
 //! explicitly; an existing run there with another configuration is refused.
 
 use super::{RefusedError, exit, parse_list, usage};
+use crate::belief::Probe;
 use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias, sanitize_name};
 use crate::eval::events::{Reporter, StopReason};
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
@@ -90,6 +91,11 @@ pub struct EvalArgs {
     /// History sent to the model: full, or last:K earlier turns.
     #[arg(long, default_value = "full")]
     pub history: String,
+    /// Add a probe to every answer: `belief` asks for the probability that
+    /// the other road user lets the ego pass first. A probe run is its own
+    /// run (and leaderboard row); the action is scored as without it.
+    #[arg(long, default_value = "none", value_parser = parse_probe)]
+    pub probe: Probe,
     /// Ask for a response format: json_object (or text).
     #[arg(long)]
     pub response_format: Option<String>,
@@ -205,9 +211,10 @@ impl EvalArgs {
             model: target.model,
             request_params: built.params,
             history,
-            prompt_hash: fnv1a64_hex(crate::eval::prompt::SYSTEM_PROMPT),
+            prompt_hash: crate::eval::prompt::prompt_hash(self.probe),
             scenarios_hash: scenarios_hash(&scenario_set),
             endpoint: crate::redact::url_without_userinfo(&target.base_url),
+            probe: self.probe,
         };
         let run_name = self.run_name(&config)?;
         let retry = RetryPolicy {
@@ -509,4 +516,8 @@ fn clip_header(h: &str) -> String {
     // Never echo a possible credential back in full.
     let start: String = h.chars().take(6).collect();
     if start.len() < h.len() { format!("{start}...") } else { start }
+}
+
+fn parse_probe(s: &str) -> Result<Probe, String> {
+    s.parse()
 }

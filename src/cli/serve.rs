@@ -1,5 +1,6 @@
 //! `negotiator serve`: a scripted policy behind an OpenAI-compatible API.
 use super::usage;
+use crate::belief::Probe;
 use crate::policy::PolicyKind;
 use crate::serve::ServeConfig;
 use std::process::ExitCode;
@@ -38,6 +39,31 @@ pub struct ServeArgs {
     /// Seed of the fault injection and of the random policy.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Add the policy's belief to every answer (`belief`), as for
+    /// `eval --probe belief`. The expert states the ideal observer's
+    /// belief, which needs the episode: see --probe-seeds.
+    #[arg(long, default_value = "none", value_parser = parse_probe)]
+    pub probe: Probe,
+    /// Seeds A..B (B excluded) whose episodes the belief probe can find
+    /// behind a conversation (built-in scenario parameters, every scenario
+    /// and tier); a conversation outside them gets the belief 0.5 from the
+    /// expert and is counted as unidentified.
+    #[arg(long, default_value = "0..1000", value_parser = parse_seed_range)]
+    pub probe_seeds: std::ops::Range<u64>,
+}
+
+fn parse_probe(s: &str) -> Result<Probe, String> {
+    s.parse()
+}
+
+fn parse_seed_range(s: &str) -> Result<std::ops::Range<u64>, String> {
+    let bad = || format!("'{s}' is not A..B with A < B (whole numbers, B - A at most 1000000)");
+    let (a, b) = s.trim().split_once("..").ok_or_else(bad)?;
+    let (a, b): (u64, u64) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    if a >= b || b - a > 1_000_000 {
+        return Err(bad());
+    }
+    Ok(a..b)
 }
 
 fn rate(x: f64, flag: &str) -> anyhow::Result<f64> {
@@ -60,6 +86,8 @@ impl ServeArgs {
             rate_limit: self.rate_limit,
             drop_rate: rate(self.drop_rate, "--drop-rate")?,
             garbage_rate: rate(self.garbage_rate, "--garbage-rate")?,
+            belief: (self.probe == Probe::Belief)
+                .then(|| std::sync::Arc::new(crate::serve::EpisodeIndex::build(self.probe_seeds.clone()))),
         };
         eprintln!(
             "serving policy '{policy}' (fail {} | drop {} | garbage {} | rate limit {} | latency {} ms | seed {})",
@@ -76,14 +104,16 @@ impl ServeArgs {
             .map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;
         let s = &state.stats;
         eprintln!(
-            "served {} requests: {} ok, {} failed, {} rate-limited, {} dropped, {} garbage, {} unreadable scenes",
+            "served {} requests: {} ok, {} failed, {} rate-limited, {} dropped, {} garbage, {} unreadable scenes, {} \
+             unidentified episodes",
             s.requests.load(Relaxed),
             s.ok.load(Relaxed),
             s.failed.load(Relaxed),
             s.rate_limited.load(Relaxed),
             s.dropped.load(Relaxed),
             s.garbage.load(Relaxed),
-            s.unparseable_scenes.load(Relaxed)
+            s.unparseable_scenes.load(Relaxed),
+            s.unidentified_episodes.load(Relaxed)
         );
         Ok(ExitCode::SUCCESS)
     }

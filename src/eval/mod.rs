@@ -22,7 +22,8 @@ pub mod store;
 pub mod summary;
 pub mod truncation;
 
-use crate::action::parse_action;
+use crate::action::{parse_action, parse_belief};
+use crate::belief::{BeliefMetrics, BeliefTurn, Probe};
 use crate::episode::{Episode, EpisodeRecord, Outcome};
 use crate::llm::profile::{rejected_parameter, remedy_for};
 use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, Completion, LlmError, Role, Usage};
@@ -171,7 +172,9 @@ enum EpisodeError {
 struct Ctx {
     client: Client,
     options: EvalOptions,
-    system: ChatMessage,
+    /// The system prompt of each scenario (they differ only by the probe's
+    /// question).
+    systems: Vec<(ScenarioKind, ChatMessage)>,
     hash: String,
     counters: Arc<Counters>,
     /// The preflight request's outcome: the answer to the first turn of
@@ -180,6 +183,10 @@ struct Ctx {
 }
 
 impl Ctx {
+    fn system(&self, kind: ScenarioKind) -> &ChatMessage {
+        &self.systems.iter().find(|(k, _)| *k == kind).expect("every scenario has a system prompt").1
+    }
+
     /// The preflight's answer, if `key`'s first turn was the preflight.
     fn take_first_turn(&self, key: EpisodeKey) -> Option<Result<Completion, LlmError>> {
         let mut slot = self.first_turn.lock().unwrap_or_else(|e| e.into_inner());
@@ -254,7 +261,7 @@ async fn preflight(run: &Prepared) -> Result<(), LlmError> {
     let episode = Episode::new(opts.scenario_set.get(key.scenario), key.tier, key.seed);
     let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
     let history = History::default();
-    let messages = history.messages(&ctx.system, opts.config.history, &scene);
+    let messages = history.messages(ctx.system(key.scenario), opts.config.history, &scene);
     let request = ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
     let on_retry = |message: &str| {
         ctx.counters.retries.fetch_add(1, Relaxed);
@@ -358,7 +365,10 @@ fn prepare(
     let client = Client::new(options.client.clone()).map_err(|e| EvalError::Client(e.to_string()))?;
     let ctx = Arc::new(Ctx {
         client,
-        system: ChatMessage::new(Role::System, prompt::SYSTEM_PROMPT),
+        systems: ScenarioKind::ALL
+            .iter()
+            .map(|&k| (k, ChatMessage::new(Role::System, prompt::system_prompt(options.config.probe, k))))
+            .collect(),
         hash,
         counters,
         options,
@@ -833,7 +843,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     while !episode.is_done() {
         let turn = episode.observation().turn;
         let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
-        let messages = history.messages(&ctx.system, opts.config.history, &scene);
+        let messages = history.messages(ctx.system(key.scenario), opts.config.history, &scene);
         let request =
             ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
         let on_retry = |message: &str| {
@@ -864,6 +874,14 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         let (tokens, estimated) = turn_tokens(&completion, sent_bytes);
         ctx.counters.tokens.fetch_add(tokens, Relaxed);
         ctx.counters.turns.fetch_add(1, Relaxed);
+        let ideal_belief = episode.ideal_belief();
+        let (belief, belief_error) = match opts.config.probe {
+            Probe::None => (None, None),
+            Probe::Belief => match parse_belief(completion.content.as_deref().unwrap_or("")) {
+                Ok(b) => (Some(b), None),
+                Err(e) => (None, Some(e)),
+            },
+        };
         episode.step(parsed.action);
         let answer = prompt::history_answer(&completion.answer);
         let truncated = completion.finish_reason.as_deref() == Some("length");
@@ -886,6 +904,9 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             latency_ms: completion.latency.as_millis() as u64,
             attempts: completion.attempts,
             after_resolution: false,
+            ideal_belief: Some(ideal_belief),
+            belief,
+            belief_error,
         });
         history.push(scene, answer);
     }
@@ -918,6 +939,19 @@ fn rollout_record(
     retries: u32,
     started: Instant,
 ) -> RolloutRecord {
+    let belief = (ctx.options.config.probe == Probe::Belief).then(|| {
+        let turns: Vec<BeliefTurn> = turns
+            .iter()
+            .map(|t| BeliefTurn {
+                turn: t.turn,
+                stated: t.belief,
+                ideal: t.ideal_belief.unwrap_or(0.5),
+                maneuver: t.parse_errors.is_empty().then_some(t.action.maneuver),
+                open: !t.after_resolution,
+            })
+            .collect();
+        BeliefMetrics::compute(&turns, graded.disposition.ego_should_go(), graded.timing.evidence_turn)
+    });
     let usage = |part: fn(&Usage) -> Option<u64>| -> u64 {
         turns.iter().filter_map(|t| t.usage.as_ref()).map(|u| part(u).unwrap_or(0)).sum()
     };
@@ -934,6 +968,7 @@ fn rollout_record(
         reward: graded.grades.reward,
         decision_correctness: graded.grades.decision_correctness,
         timing: graded.timing,
+        belief,
         diagnostics: graded.grades.diagnostics,
         turns_taken: turns.len() as u32,
         // A cut-off reply is counted as truncated, not as a parse error.

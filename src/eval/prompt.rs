@@ -7,8 +7,10 @@
 //! other road user's possible intentions or how they show: inferring them is
 //! the task.
 
+use crate::belief::Probe;
 use crate::llm::{ChatMessage, Role};
 use crate::rundir::HistoryWindow;
+use crate::scenario::ScenarioKind;
 
 pub const SYSTEM_PROMPT: &str = "\
 You are the driver of an automated car (the ego vehicle) in a short traffic situation. \
@@ -30,6 +32,28 @@ how strongly, inside that maneuver's band:
 The sign of acceleration does not matter, and steering is ignored (you stay on your path). \
 Each answer is held for 0.5 s, then you get the next scene. An answer that cannot be read as \
 this JSON object is executed as a firm stop.";
+
+/// The system prompt of one episode: [`SYSTEM_PROMPT`], plus the belief
+/// question of its scenario when the run probes beliefs.
+pub fn system_prompt(probe: Probe, kind: ScenarioKind) -> String {
+    match probe {
+        Probe::None => SYSTEM_PROMPT.to_string(),
+        Probe::Belief => format!("{SYSTEM_PROMPT}{}", crate::belief::prompt_paragraph(kind)),
+    }
+}
+
+/// The hash of every system prompt a run may send (part of the run's
+/// identity): the plain prompt's alone without a probe, so runs made before
+/// probes existed keep their hash.
+pub fn prompt_hash(probe: Probe) -> String {
+    match probe {
+        Probe::None => crate::hash::fnv1a64_hex(SYSTEM_PROMPT),
+        Probe::Belief => {
+            let all: Vec<String> = ScenarioKind::ALL.iter().map(|&k| system_prompt(probe, k)).collect();
+            crate::hash::fnv1a64_hex(&all.join("\u{0}"))
+        }
+    }
+}
 
 /// The conversation so far: earlier (scene, answer) pairs.
 #[derive(Debug, Default)]
@@ -120,9 +144,11 @@ mod tests {
 
     #[test]
     fn the_prompt_hints_at_no_disposition() {
-        let lower = SYSTEM_PROMPT.to_lowercase();
-        for word in ["committed", "yielder", "feint", "bluff", "crosser", "makes_room", "disposition", "dart"] {
-            assert!(!lower.contains(word), "system prompt mentions '{word}'");
+        assert_eq!(crate::belief::check_neutral(SYSTEM_PROMPT), Ok(()));
+        for kind in crate::scenario::ScenarioKind::ALL {
+            for probe in [Probe::None, Probe::Belief] {
+                assert_eq!(crate::belief::check_neutral(&system_prompt(probe, kind)), Ok(()), "{kind} {probe:?}");
+            }
         }
         for m in crate::action::Maneuver::ALL {
             assert!(SYSTEM_PROMPT.contains(m.name()), "{m}");

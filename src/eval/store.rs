@@ -241,6 +241,7 @@ mod tests {
             reward: 0.9,
             decision_correctness: 1.0,
             timing: Default::default(),
+            belief: None,
             turns_taken: 10,
             parse_error_turns: 0,
             tokens: 100,
@@ -345,6 +346,7 @@ mod tests {
             prompt_hash: "p".into(),
             scenarios_hash: "s".into(),
             endpoint: String::new(),
+            probe: Default::default(),
         };
         let info = RunInfo {
             schema_version: crate::rundir::SCHEMA_VERSION,

@@ -2,6 +2,7 @@
 //! of the selection. Infrastructure errors are excluded from every score and
 //! shown as their own column.
 
+use crate::belief::BeliefSummary;
 use crate::episode::{EvidenceTiming, Outcome};
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
 use crate::rundir::record::EpisodeScalars;
@@ -41,6 +42,9 @@ pub struct CellSummary {
     #[serde(default)]
     pub truncated_rate: f64,
     pub tokens_per_episode: f64,
+    /// Belief-probe runs: the belief metrics of the cell.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub belief: Option<BeliefSummary>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -94,6 +98,10 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
             parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
             truncated_rate: if turns == 0 { f64::NAN } else { cut as f64 / turns as f64 },
             tokens_per_episode: mean(&eps.iter().map(|e| e.tokens as f64).collect::<Vec<_>>()),
+            belief: eps
+                .iter()
+                .any(|e| e.belief.is_some())
+                .then(|| BeliefSummary::of(eps.iter().filter_map(|e| e.belief.as_ref()))),
         });
     }
     let sum = |part: fn(&EpisodeScalars) -> u64| cells.iter().flat_map(|c| c.2.iter()).map(part).sum::<u64>();
@@ -168,11 +176,32 @@ pub(crate) fn table(summary: &Summary) -> Table {
     t
 }
 
+/// The belief table of a probe run: one row per (scenario, tier) with
+/// belief metrics (None when no cell has any).
+pub(crate) fn belief_table(summary: &Summary) -> Option<Table> {
+    let mut columns =
+        vec![Column::new("scenario", "scenario"), Column::new("tier", "tier"), Column::new("n", "episodes")];
+    columns.extend(crate::belief::columns());
+    let mut t = Table::new("belief", "Belief probe", columns);
+    for c in &summary.cells {
+        let Some(b) = &c.belief else { continue };
+        let mut row =
+            vec![Cell::text(c.scenario.to_string()), Cell::Int(c.tier.number().into()), Cell::Int(c.episodes as u64)];
+        row.extend(crate::belief::cells(b));
+        t.push(row);
+    }
+    t.note(crate::belief::TABLE_NOTE);
+    summary.cells.iter().any(|c| c.belief.is_some()).then_some(t)
+}
+
 /// `summary.md` and the table printed at the end of a run: the model, the
-/// leaderboard in Markdown, and the totals.
+/// leaderboard in Markdown, the belief table of a probe run, and the totals.
 pub fn render(summary: &Summary) -> String {
+    let belief = belief_table(summary)
+        .map(|t| format!("\n{}", MarkdownExporter { heading_level: 2 }.render(&t)))
+        .unwrap_or_default();
     format!(
-        "model: {}\n\n{}\nmean success over cells: {}; {} episodes scored, {} missing\n\
+        "model: {}\n\n{}{belief}\nmean success over cells: {}; {} episodes scored, {} missing\n\
          tokens: {} prompt ({} cached, {}), {} completion ({} reasoning)\n",
         summary.model,
         MarkdownExporter { heading_level: 2 }.render(&table(summary)),
@@ -211,6 +240,7 @@ mod tests {
             },
             decision_correctness: 0.5,
             timing: Default::default(),
+            belief: None,
             turns_taken: 10,
             parse_error_turns,
             tokens: 1000,

@@ -33,6 +33,11 @@ impl Policy for Expert {
             }
         }
     }
+
+    /// The reference belief: the ideal observer's.
+    fn belief(&mut self, _obs: &Observation, _action: &Action, ideal: f64) -> f64 {
+        ideal
+    }
 }
 
 impl Policy for CueFollower {

@@ -17,6 +17,16 @@ pub trait Policy: Send {
     /// randomness (derived from, but not revealing, the episode key).
     fn reset(&mut self, _policy_seed: u64) {}
     fn act(&mut self, obs: &Observation) -> Action;
+    /// The belief the policy states for the probe: the probability that
+    /// the other road user lets the ego pass first, after choosing
+    /// `action` for `obs`. By default a policy believes what it does (1
+    /// when it proceeds, else 0): the cue follower's belief is thus its
+    /// instantaneous cue's. `ideal` is the ideal observer's belief
+    /// (privileged): only the expert states it, as the reference a
+    /// perfect reader of the scene would give; no action ever reads it.
+    fn belief(&mut self, _obs: &Observation, action: &Action, _ideal: f64) -> f64 {
+        if action.maneuver.is_go() { 1.0 } else { 0.0 }
+    }
 }
 
 /// The built-in policies.

@@ -32,17 +32,25 @@ impl Policy for Cautious {
 /// Uniformly random maneuver and magnitude, seeded per episode.
 pub struct RandomPolicy {
     rng: EpisodeRng,
+    seed: u64,
 }
 
 impl Default for RandomPolicy {
     fn default() -> Self {
-        RandomPolicy { rng: EpisodeRng::new(&[0], Stream::Policy) }
+        RandomPolicy { rng: EpisodeRng::new(&[0], Stream::Policy), seed: 0 }
     }
 }
 
 impl Policy for RandomPolicy {
     fn reset(&mut self, policy_seed: u64) {
         self.rng = EpisodeRng::new(&[policy_seed], Stream::Policy);
+        self.seed = policy_seed;
+    }
+
+    /// Uniform on [0, 1), from (seed, turn) rather than the action stream,
+    /// so probing a belief never changes the actions.
+    fn belief(&mut self, obs: &Observation, _action: &Action, _ideal: f64) -> f64 {
+        EpisodeRng::new(&[self.seed, u64::from(obs.turn)], Stream::Policy).unit()
     }
     fn act(&mut self, _: &Observation) -> Action {
         let maneuver = Maneuver::ALL[self.rng.below(4) as usize];

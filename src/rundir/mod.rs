@@ -25,8 +25,11 @@ use std::path::Path;
 
 /// The run-directory schema this build writes, and the newest it reads.
 /// Version 2 adds the evidence timing (`evidence_turn`, `commitment_turn`,
-/// `choice`, `first_in`) to every rollout line.
-pub const SCHEMA_VERSION: u32 = 2;
+/// `choice`, `first_in`) to every rollout line. Version 3 adds the ideal
+/// observer's belief to every turn (`ideal_belief`), and on belief-probe
+/// runs the stated belief per turn (`belief`, `belief_error`) and the
+/// episode's belief metrics (`belief`); earlier lines read with none.
+pub const SCHEMA_VERSION: u32 = 3;
 
 pub const ROLLOUTS: &str = "rollouts.jsonl";
 pub const ERRORS: &str = "errors.jsonl";
@@ -159,6 +162,11 @@ pub struct RunConfig {
     /// before it existed (their hash is unchanged).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub endpoint: String,
+    /// The probe added to every answer (`--probe belief`): a probe run is
+    /// its own experiment. Absent without a probe (earlier runs' hashes
+    /// are unchanged).
+    #[serde(default, skip_serializing_if = "crate::belief::Probe::is_none")]
+    pub probe: crate::belief::Probe,
 }
 
 impl RunConfig {
@@ -380,6 +388,7 @@ mod tests {
             prompt_hash: "p".into(),
             scenarios_hash: "s".into(),
             endpoint: "http://127.0.0.1:1/v1".into(),
+            probe: crate::belief::Probe::None,
         }
     }
 
@@ -413,8 +422,10 @@ mod tests {
         b.request_params.insert("temperature".into(), Value::from(0.7));
         b.request_params.insert("top_p".into(), Value::from(0.9));
         b.history = HistoryWindow::Last(4);
+        b.probe = crate::belief::Probe::Belief;
         let d = a.diff(&b);
-        assert_eq!(d.len(), 3, "{d:?}");
+        assert_eq!(d.len(), 4, "{d:?}");
+        assert!(d.iter().any(|l| l == "probe: (unset) -> \"belief\""), "{d:?}");
         assert!(d.iter().any(|l| l.starts_with("request_params.temperature: 0.0 -> 0.7")), "{d:?}");
         assert!(d.iter().any(|l| l.starts_with("request_params.top_p: (unset) -> 0.9")), "{d:?}");
         assert!(d.iter().any(|l| l.starts_with("history:")), "{d:?}");

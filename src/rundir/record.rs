@@ -3,6 +3,7 @@
 //! up), and [`EpisodeScalars`], the one read-side view of a rollout line.
 
 use crate::action::{Action, ActionParseError};
+use crate::belief::BeliefMetrics;
 use crate::episode::{EvidenceTiming, Outcome, TrajectoryPoint};
 use crate::grading::Diagnostics;
 use crate::llm::Usage;
@@ -76,6 +77,17 @@ pub struct TurnRecord {
     /// Whether the go / give-way question was already settled (privileged,
     /// from the simulator; used by decision correctness).
     pub after_resolution: bool,
+    /// Privileged: the ideal observer's belief that the other road user
+    /// lets the ego pass first, given this turn's scene (absent before
+    /// schema 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ideal_belief: Option<f64>,
+    /// Belief-probe runs: the belief the reply stated, or why none could be
+    /// read (a probe parse error; the action is unaffected).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub belief: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub belief_error: Option<crate::action::BeliefParseError>,
 }
 
 /// One finished episode. The scalars come before the transcript (`turns`),
@@ -101,6 +113,9 @@ pub struct RolloutRecord {
     /// choice and who entered the conflict first (absent before schema 2).
     #[serde(default, flatten)]
     pub timing: EvidenceTiming,
+    /// Belief-probe runs: the episode's belief metrics.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub belief: Option<BeliefMetrics>,
     pub diagnostics: Diagnostics,
     /// Decisions taken.
     pub turns_taken: u32,
@@ -155,6 +170,8 @@ pub struct EpisodeScalars {
     pub decision_correctness: f64,
     #[serde(default, flatten)]
     pub timing: EvidenceTiming,
+    #[serde(default)]
+    pub belief: Option<BeliefMetrics>,
     pub turns_taken: u32,
     pub parse_error_turns: u32,
     pub tokens: u64,
@@ -197,6 +214,7 @@ impl From<&RolloutRecord> for EpisodeScalars {
             reward: r.reward,
             decision_correctness: r.decision_correctness,
             timing: r.timing,
+            belief: r.belief,
             turns_taken: r.turns_taken,
             parse_error_turns: r.parse_error_turns,
             tokens: r.tokens,

@@ -12,6 +12,7 @@
 use super::world::{Contact, History, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::Action;
+use crate::belief::NoisyReading;
 use crate::observation::{Sample, Scene, Track};
 use crate::policy::{go, hedge};
 use crate::rng::EpisodeRng;
@@ -146,6 +147,8 @@ pub struct MergeWorld {
     phase: Phase,
     revealed: bool,
     noise: Option<EpisodeRng>,
+    /// The noisy readings of the last observation (tier 2 only).
+    readings: Vec<NoisyReading>,
     lane_history: History,
     follower_history: History,
 }
@@ -189,6 +192,7 @@ impl MergeWorld {
             phase,
             revealed: tier != Tier::T3,
             noise,
+            readings: Vec::new(),
             lane_history,
             follower_history,
         }
@@ -350,8 +354,28 @@ impl World for MergeWorld {
     fn observe(&mut self, ego: &Body) -> Scene {
         let lane = Sample { position_m: self.lane_car.s - ego.s, velocity_mps: self.lane_car.v };
         let follower = Sample { position_m: self.follower.s - ego.s, velocity_mps: self.follower.v };
+        let (lane_true, follower_true) = (lane, follower);
         let lane = observe_noisy(&mut self.noise, &self.params.tier2, lane);
         let follower = observe_noisy(&mut self.noise, &self.params.tier2, follower);
+        self.readings.clear();
+        if self.noise.is_some() {
+            let sd = &self.params.tier2;
+            for (truth, shown) in [(lane_true, lane), (follower_true, follower)] {
+                let position = NoisyReading {
+                    shown: shown.position_m,
+                    truth: truth.position_m,
+                    sd: sd.position_noise_m,
+                    floor: None,
+                };
+                let speed = NoisyReading {
+                    shown: shown.velocity_mps,
+                    truth: truth.velocity_mps,
+                    sd: sd.speed_noise_mps,
+                    floor: Some(0.0),
+                };
+                self.readings.extend([position, speed]);
+            }
+        }
         Scene::ContestedMerge {
             ego_to_merge_m: self.merge_point - ego.s,
             ramp_left_m: self.params.road.taper_length_m - ego.s,
@@ -362,6 +386,10 @@ impl World for MergeWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn noisy_readings(&self) -> &[NoisyReading] {
+        &self.readings
     }
 
     fn ego_to_conflict(&self, ego: &Body) -> f64 {

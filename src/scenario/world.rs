@@ -51,6 +51,12 @@ pub trait World {
     fn cuts_off(&self, ego: &Body) -> bool;
     /// Plan-view positions: the ego first, then the other road users.
     fn plan(&self, ego: &Body) -> Vec<PlanPoint>;
+    /// The readings the last [`World::observe`] drew through observation
+    /// noise, in a fixed order (empty for a world observed without noise).
+    /// The ideal observer compares them with the other disposition's truth.
+    fn noisy_readings(&self) -> &[crate::belief::NoisyReading] {
+        &[]
+    }
 }
 
 /// Time margin for a right-of-way violation.

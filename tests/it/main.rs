@@ -1,5 +1,6 @@
 //! The one integration-test binary.
 
+mod belief;
 mod core;
 mod eval;
 mod faults;

@@ -73,6 +73,7 @@ fn config(model: &str, temperature: Option<f64>) -> RunConfig {
         prompt_hash: "p".into(),
         scenarios_hash: "s".into(),
         endpoint: String::new(),
+        probe: Default::default(),
     }
 }
 
