@@ -354,6 +354,66 @@ pub fn mcnemar_exact(b: usize, c: usize) -> f64 {
     log_p.exp().min(1.0)
 }
 
+/// Wilson score 95% interval for a proportion of `successes` in `n`
+/// (Wilson 1927): centre `(p̂ + z²/2n) / (1 + z²/n)`, half-width
+/// `z √(p̂(1 − p̂)/n + z²/4n²) / (1 + z²/n)`, `z` = [`Z_95`]. Unlike the
+/// percentile bootstrap it does not collapse at 0 or 1: at `successes = n`
+/// it is `[n / (n + z²), 1]`. All-NaN when `n = 0` or `successes > n`.
+pub(crate) fn wilson_ci(successes: f64, n: f64) -> Interval {
+    if n <= 0.0 || !(0.0..=n).contains(&successes) {
+        return Interval::NAN;
+    }
+    let p = successes / n;
+    let z2 = Z_95 * Z_95;
+    let denom = 1.0 + z2 / n;
+    let centre = (p + z2 / (2.0 * n)) / denom;
+    let half = Z_95 * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / denom;
+    Interval { estimate: p, lo: (centre - half).max(0.0), hi: (centre + half).min(1.0) }
+}
+
+/// The success interval of a set of units (a unit is a seed; its value is
+/// its success rate over its rollouts, in `[0, 1]`): the percentile
+/// bootstrap over the units ([`bootstrap_mean_ci`]), except when every unit
+/// has the same value 0 or 1, where the bootstrap collapses to a point
+/// ("1.00 [1.00, 1.00]" from two seeds reads as certainty): then the
+/// Wilson score interval ([`wilson_ci`]) of `k·n` successes in `n` units,
+/// `n` the number of seeds (rollouts of a seed are not independent, so
+/// they do not add to `n`). [`collapsed`] tells which rule applied.
+pub(crate) fn success_ci(units: &[f64], resamples: usize, seed: u64) -> Interval {
+    match collapsed(units) {
+        Some(k) if resamples > 0 => wilson_ci(k * units.len() as f64, units.len() as f64),
+        _ => bootstrap_mean_ci(units, resamples, seed),
+    }
+}
+
+/// `Some(0.0)` or `Some(1.0)` when every unit is 0, or every unit is 1 (the
+/// bootstrap would collapse there), else `None`.
+pub(crate) fn collapsed(units: &[f64]) -> Option<f64> {
+    let first = *units.first()?;
+    ((first == 0.0 || first == 1.0) && units.iter().all(|&x| x == first)).then_some(first)
+}
+
+/// Discordant pairs per shared key that a paired comparison needs, in
+/// shared keys, for 80% power at two-sided level 0.05 with the exact
+/// McNemar test, by Connor's (1987) normal approximation:
+///
+/// `n = (z_{α/2} √ψ + z_β √(ψ − δ²))² / δ²`, with `ψ = p₁₀ + p₀₁` the
+/// discordant share, `δ = p₁₀ − p₀₁` the difference (here the observed
+/// shares `a_only / keys` and `b_only / keys`), `z_{α/2} = 1.959964`,
+/// `z_β = 0.841621` (β = 0.2). Rounded up. `None` when the observed
+/// difference is 0 (no finite sample separates it) or there are no keys.
+pub(crate) fn mcnemar_keys_for_power(a_only: usize, b_only: usize, keys: usize) -> Option<u64> {
+    if keys == 0 || a_only == b_only {
+        return None;
+    }
+    const Z_BETA_80: f64 = 0.8416212335729143;
+    let (p10, p01) = (a_only as f64 / keys as f64, b_only as f64 / keys as f64);
+    let psi = p10 + p01;
+    let delta = p10 - p01;
+    let root = Z_95 * psi.sqrt() + Z_BETA_80 * (psi - delta * delta).max(0.0).sqrt();
+    Some((root * root / (delta * delta)).ceil() as u64)
+}
+
 /// Unbiased pass^k estimator for one seed with `c` successes among `r`
 /// rollouts: `C(c, k) / C(r, k)`, the probability that `k` rollouts drawn
 /// without replacement all succeed.
@@ -654,6 +714,51 @@ mod tests {
         let tiny = mcnemar_exact(100, 400);
         assert!(tiny > 0.0 && tiny < 1e-40);
         assert_eq!(mcnemar_exact(1_000_000, 1_000_000), 1.0);
+    }
+
+    #[test]
+    fn wilson_textbook_values() {
+        // 0 of 10: [0, 0.2775]; 10 of 10: [0.7225, 1]; 5 of 10: [0.2366, 0.7634] (Newcombe 1998, table I style).
+        let close = |a: f64, b: f64| (a - b).abs() < 5e-5;
+        let w = wilson_ci(0.0, 10.0);
+        assert!(close(w.lo, 0.0) && close(w.hi, 0.2775), "{w:?}");
+        let w = wilson_ci(10.0, 10.0);
+        assert!(close(w.lo, 0.7225) && close(w.hi, 1.0) && w.estimate == 1.0, "{w:?}");
+        let w = wilson_ci(5.0, 10.0);
+        assert!(close(w.lo, 0.2366) && close(w.hi, 0.7634), "{w:?}");
+        assert!(wilson_ci(1.0, 0.0).lo.is_nan());
+    }
+
+    #[test]
+    fn success_interval_falls_back_to_wilson_only_when_the_bootstrap_collapses() {
+        // Two seeds, both successes: not [1, 1] but Wilson [2/(2+z²), 1] = [0.3424, 1].
+        let iv = success_ci(&[1.0, 1.0], 10_000, 7);
+        assert_eq!(iv.estimate, 1.0);
+        assert!((iv.lo - 2.0 / (2.0 + Z_95 * Z_95)).abs() < 1e-12 && iv.hi == 1.0, "{iv:?}");
+        let iv = success_ci(&[0.0; 20], 10_000, 7);
+        assert!(iv.lo == 0.0 && (iv.hi - Z_95 * Z_95 / (20.0 + Z_95 * Z_95)).abs() < 1e-12, "{iv:?}");
+        // Anything else is the bootstrap, unchanged; a constant 0.5 (rollout rates) too.
+        let xs = [1.0, 0.0, 1.0, 1.0, 0.5];
+        assert_eq!(success_ci(&xs, 2000, 3), bootstrap_mean_ci(&xs, 2000, 3));
+        assert_eq!(success_ci(&[0.5, 0.5], 2000, 3), bootstrap_mean_ci(&[0.5, 0.5], 2000, 3));
+        assert_eq!((collapsed(&[1.0, 1.0]), collapsed(&[0.5, 0.5]), collapsed(&[])), (Some(1.0), None, None));
+    }
+
+    #[test]
+    fn power_by_connors_formula() {
+        // p10 = 0.15, p01 = 0.05: psi 0.2, delta 0.1:
+        // (1.959964 * sqrt(0.2) + 0.841621 * sqrt(0.19))^2 / 0.01 = 154.6 -> 155 keys.
+        assert_eq!(mcnemar_keys_for_power(30, 10, 200), Some(155));
+        // The same shares at another sample size need the same keys.
+        assert_eq!(mcnemar_keys_for_power(15, 5, 100), Some(155));
+        // Symmetric in direction; no difference -> no finite answer.
+        assert_eq!(mcnemar_keys_for_power(10, 30, 200), Some(155));
+        assert_eq!(mcnemar_keys_for_power(7, 7, 100), None);
+        assert_eq!(mcnemar_keys_for_power(0, 0, 0), None);
+        // A smaller difference needs more keys: p10 0.06, p01 0.04.
+        let n = mcnemar_keys_for_power(6, 4, 100).unwrap();
+        let expect = ((1.959964 * 0.1f64.sqrt() + 0.841621 * (0.1f64 - 0.0004).sqrt()).powi(2) / 0.0004).ceil();
+        assert_eq!(n as f64, expect);
     }
 
     #[test]

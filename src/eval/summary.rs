@@ -7,7 +7,7 @@ use crate::episode::{EvidenceTiming, Outcome};
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
-use crate::stats::{Interval, bootstrap_mean_ci, cell_seed, mean};
+use crate::stats::{Interval, cell_seed, mean, success_ci};
 use serde::{Deserialize, Serialize};
 
 /// Percentile bootstrap resamples for the success interval (SPEC section 8).
@@ -19,10 +19,17 @@ pub struct CellSummary {
     pub tier: Tier,
     /// Finished episodes scored.
     pub episodes: usize,
+    /// Seeds with a finished episode (the resampling units).
+    #[serde(default)]
+    pub seeds: usize,
+    /// Rollouts per seed (the most any seed has).
+    #[serde(default)]
+    pub rollouts: u32,
     /// Episodes of the selection not finished (infrastructure errors, or not
     /// started: token budget, interruption). Excluded from every score.
     pub missing: usize,
-    /// Success rate with a 95% percentile bootstrap interval.
+    /// Success rate with a 95% percentile bootstrap interval over seeds
+    /// (Wilson when every seed is 0, or every seed is 1).
     pub success: Interval,
     pub collision_rate: f64,
     pub timeout_rate: f64,
@@ -77,7 +84,7 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
         let rate = |o: Outcome| {
             if n == 0 { f64::NAN } else { eps.iter().filter(|e| e.outcome == o).count() as f64 / n as f64 }
         };
-        let success: Vec<f64> = eps.iter().map(|e| f64::from(u8::from(e.outcome == Outcome::Success))).collect();
+        let (per_seed, rollouts) = seed_rates(eps);
         let turns: u64 = eps.iter().map(|e| e.turns_taken as u64).sum();
         let bad: u64 = eps.iter().map(|e| e.parse_error_turns as u64).sum();
         let cut: u64 = eps.iter().map(|e| e.truncated_turns as u64).sum();
@@ -85,10 +92,13 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
             scenario: *scenario,
             tier: *tier,
             episodes: n,
+            seeds: per_seed.len(),
+            rollouts,
             missing: *missing,
-            success: // The cell's fixed seed (base 0): a summary is a pure function of the
-            // episodes, and equals the report's interval for the cell.
-            bootstrap_mean_ci(&success, RESAMPLES, cell_seed(0, *scenario, *tier)),
+            // Seeds are the units (rollouts of a seed are not independent), with the
+            // cell's fixed seed (base 0): a summary is a pure function of the episodes and
+            // equals the report's interval for the cell.
+            success: success_ci(&per_seed, RESAMPLES, cell_seed(0, *scenario, *tier)),
             collision_rate: rate(Outcome::Collision),
             timeout_rate: rate(Outcome::Timeout),
             mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
@@ -119,6 +129,19 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
     }
 }
 
+/// Per seed, in seed order, its success rate over its rollouts; and the
+/// most rollouts any seed has.
+fn seed_rates(eps: &[EpisodeScalars]) -> (Vec<f64>, u32) {
+    let mut by_seed: std::collections::BTreeMap<u64, (u32, u32)> = std::collections::BTreeMap::new();
+    for e in eps {
+        let (wins, n) = by_seed.entry(e.seed).or_default();
+        *wins += u32::from(e.outcome == Outcome::Success);
+        *n += 1;
+    }
+    let most = by_seed.values().map(|&(_, n)| n).max().unwrap_or(0);
+    (by_seed.into_values().map(|(wins, n)| f64::from(wins) / f64::from(n)).collect(), most)
+}
+
 /// Share of the episodes with a commitment that committed before the
 /// evidence turn (NaN when none committed).
 pub fn guess_rate(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
@@ -141,7 +164,9 @@ pub(crate) fn table(summary: &Summary) -> Table {
         vec![
             Column::new("scenario", "scenario"),
             Column::new("tier", "tier"),
-            Column::new("n", "episodes"),
+            Column::display("n (seeds x rollouts)"),
+            Column::data("episodes"),
+            Column::data("seeds"),
             Column::new("success [95% CI]", "success").style(Style::Interval),
             Column::new("collision", "collision_rate"),
             Column::new("timeout", "timeout_rate"),
@@ -159,7 +184,9 @@ pub(crate) fn table(summary: &Summary) -> Table {
         t.push(vec![
             Cell::text(c.scenario.to_string()),
             Cell::Int(c.tier.number().into()),
+            Cell::text(format!("{}x{}", c.seeds, c.rollouts)),
             Cell::Int(c.episodes as u64),
+            Cell::Int(c.seeds as u64),
             Cell::Interval(c.success),
             Cell::Float(c.collision_rate),
             Cell::Float(c.timeout_rate),
@@ -275,7 +302,7 @@ mod tests {
         assert!((c.mean_reward - 0.2).abs() < 1e-12);
         let table = render(&s);
         assert!(table.contains("tokens: 3600 prompt (1800 cached, 50%), 400 completion (240 reasoning)"), "{table}");
-        assert!(table.contains("| pedestrian_feint | 2 | 4 | 0.50 ["), "{table}");
+        assert!(table.contains("| pedestrian_feint | 2 | 4x1 | 0.50 ["), "{table}");
         // Deterministic: the same episodes give the same summary.
         let again = summarize(
             "m",
@@ -295,9 +322,33 @@ mod tests {
     }
 
     #[test]
+    fn rollouts_of_a_seed_are_one_unit() {
+        // 4 seeds x 2 rollouts that agree within a seed: per-seed rates 1, 1, 0, 0.
+        let o = [Outcome::Success, Outcome::Timeout];
+        let eps: Vec<EpisodeScalars> =
+            [(0, 0, 0), (0, 1, 0), (1, 0, 0), (1, 1, 0), (2, 0, 1), (2, 1, 1), (3, 0, 1), (3, 1, 1)]
+                .iter()
+                .map(|&(seed, rollout, k)| EpisodeScalars { rollout, ..ep(seed, o[k], 0) })
+                .collect();
+        let s = summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, eps, 0)]);
+        let c = &s.cells[0];
+        assert_eq!((c.episodes, c.seeds, c.rollouts), (8, 4, 2));
+        // The interval is the bootstrap of the 4 seed rates, not of the 8 episodes.
+        let seed = cell_seed(0, ScenarioKind::PedestrianFeint, Tier::T2);
+        assert_eq!(c.success, crate::stats::bootstrap_mean_ci(&[1.0, 1.0, 0.0, 0.0], RESAMPLES, seed));
+        let per_episode = crate::stats::bootstrap_mean_ci(&[1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0], RESAMPLES, seed);
+        assert!(c.success.hi - c.success.lo > per_episode.hi - per_episode.lo, "{c:?} {per_episode:?}");
+        assert!(render(&s).contains("| pedestrian_feint | 2 | 4x2 | 0.50 ["), "{}", render(&s));
+        // Every seed a success: Wilson over the 4 seeds, not [1, 1].
+        let all: Vec<EpisodeScalars> = (0..4).map(|seed| ep(seed, Outcome::Success, 0)).collect();
+        let s = summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, all, 0)]);
+        assert_eq!(s.cells[0].success, crate::stats::wilson_ci(4.0, 4.0));
+    }
+
+    #[test]
     fn empty_cells_render_dashes() {
         let s = summarize("m", &[(ScenarioKind::YieldStandoff, Tier::T1, vec![], 3)]);
-        assert!(render(&s).contains("| yield_standoff | 1 | 0 | - | - |"));
+        assert!(render(&s).contains("| yield_standoff | 1 | 0x0 | - | - |"), "{}", render(&s));
         assert!(s.mean_success.is_nan());
     }
 }

@@ -9,7 +9,7 @@
 //! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,
 //! so with one rollout per seed the two agree digit for digit.
 
-use crate::stats::{Interval, StatsError, bootstrap_mean_ci, paired_bootstrap_diff_ci, quantile};
+use crate::stats::{Interval, StatsError, collapsed, paired_bootstrap_diff_ci, quantile, success_ci, wilson_ci};
 pub use crate::stats::{cell_seed, seed_for};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -19,12 +19,14 @@ fn constant(xs: &[f64]) -> Option<f64> {
     (first.is_finite() && xs.iter().all(|&x| x == first)).then_some(first)
 }
 
-/// [`bootstrap_mean_ci`], skipping the resampling when every value is the
-/// same (the result is that value three times either way).
+/// The success interval of units ([`success_ci`]: the bootstrap, or the
+/// Wilson interval when every unit is 0 or every unit is 1), skipping the
+/// resampling when every value is the same other value (the result is that
+/// value three times either way).
 pub(crate) fn mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
     match constant(xs) {
-        Some(v) if resamples > 0 => Interval { estimate: v, lo: v, hi: v },
-        _ => bootstrap_mean_ci(xs, resamples, seed),
+        Some(v) if resamples > 0 && collapsed(xs).is_none() => Interval { estimate: v, lo: v, hi: v },
+        _ => success_ci(xs, resamples, seed),
     }
 }
 
@@ -62,7 +64,8 @@ fn index(rng: &mut ChaCha8Rng, n: u32, threshold: u32) -> usize {
 /// recomputes the same statistic from the drawn clusters' values (counted
 /// with multiplicity; a group no drawn cluster has is left out of that
 /// replicate's average). Bounds: type-7 quantiles at 0.025 and 0.975,
-/// clamped to the range of the values. When every cluster has one value
+/// clamped to the range of the values; when every value is 0, or every
+/// value is 1, the Wilson interval over the clusters instead. When every cluster has one value
 /// per group this is the mean of all values, and the interval is that of
 /// [`crate::stats::bootstrap_clustered_mean_ci`] up to resampling noise.
 pub(crate) fn clustered_mean_of_means_ci(
@@ -114,6 +117,10 @@ pub(crate) fn clustered_mean_of_means_ci(
         return Interval { estimate, lo: f64::NAN, hi: f64::NAN };
     }
     if min == max {
+        // Every value 0 (or 1): the Wilson interval over the seeds, as for a cell.
+        if estimate == 0.0 || estimate == 1.0 {
+            return wilson_ci(estimate * clusters.len() as f64, clusters.len() as f64);
+        }
         return Interval { estimate, lo: estimate, hi: estimate };
     }
     let k = clusters.len() as u32;
@@ -141,12 +148,13 @@ pub(crate) fn clustered_mean_of_means_ci(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::bootstrap_clustered_mean_ci;
+    use crate::stats::{bootstrap_clustered_mean_ci, bootstrap_mean_ci};
 
     #[test]
     fn constant_samples_skip_resampling_with_the_same_answer() {
         let xs = [0.1; 40];
         assert_eq!(mean_ci(&xs, 1000, 3), bootstrap_mean_ci(&xs, 1000, 3));
+        assert_eq!(mean_ci(&[1.0; 5], 1000, 3), wilson_ci(5.0, 5.0));
         let a = [1.0, 0.0, 1.0];
         assert_eq!(paired_ci(&a, &a, 1000, 1).unwrap(), Interval { estimate: 0.0, lo: 0.0, hi: 0.0 });
         assert!(paired_ci(&a, &a[..2], 1000, 1).is_err());
@@ -174,7 +182,9 @@ mod tests {
         assert_eq!(iv.estimate, 0.625);
         assert!(iv.lo <= iv.estimate && iv.estimate <= iv.hi);
         let flat = clustered_mean_of_means_ci(&[vec![(0, 1.0)], vec![(0, 1.0)]], 1, 100, 1);
-        assert_eq!((flat.estimate, flat.lo, flat.hi), (1.0, 1.0, 1.0));
+        assert_eq!(flat, wilson_ci(2.0, 2.0), "all ones: Wilson over the 2 seeds, not [1, 1]");
+        let half = clustered_mean_of_means_ci(&[vec![(0, 0.5)], vec![(0, 0.5)]], 1, 100, 1);
+        assert_eq!((half.lo, half.hi), (0.5, 0.5));
         assert!(clustered_mean_of_means_ci(&[], 3, 100, 1).estimate.is_nan());
         assert!(clustered_mean_of_means_ci(&[vec![(0, 0.5)], vec![(0, 1.0)]], 1, 0, 1).lo.is_nan());
     }

@@ -155,7 +155,8 @@ pub(crate) const DEFINITIONS: [(&str, &str); 8] = [
          statistic, and take the type-7 quantiles (Hyndman-Fan type 7, linear interpolation between order statistics: \
          h = (B - 1) q, Q = x[floor h] + (h - floor h)(x[floor h + 1] - x[floor h]), the default of R and numpy) at \
          q = 0.025 and 0.975. Seeds are fixed per statistic, so the report is reproducible; a (scenario, tier) cell \
-         uses the seed of eval's summary and gives the same interval.",
+         uses the seed of eval's summary and gives the same interval. When every seed is 0, or every seed is 1, the \
+         bootstrap collapses to a point; the interval is then the Wilson score interval over the seeds.",
     ),
     (
         "Average",
@@ -177,7 +178,11 @@ pub(crate) const DEFINITIONS: [(&str, &str); 8] = [
         "Paired comparison",
         "On the (scenario, tier, seed) keys both models have: the mean of the per-key success differences with a \
          paired percentile bootstrap CI over the keys, and an exact two-sided McNemar test on the discordant pairs \
-         (binomial, p = 1/2; with several rollouts, each key's lowest shared rollout). 'tied' when the CI covers 0.",
+         (binomial, p = 1/2; with several rollouts, each key's lowest shared rollout). A model is better only when \
+         the CI excludes 0 and McNemar p < 0.05 agree; fewer than 20 discordant pairs are flagged. Seeds for 80% \
+         power (pairs without a significant difference): seeds per (scenario, tier) for a paired McNemar test at \
+         0.05 to detect the observed difference, n = (1.96 sqrt(psi) + 0.84 sqrt(psi - delta^2))^2 / delta^2 keys \
+         (Connor 1987; psi the discordant share, delta the difference) over the cells.",
     ),
     (
         "pass^k",

@@ -9,7 +9,14 @@
 //!   B failed (`a_only`) against the reverse (`b_only`). With several
 //!   rollouts per seed the test uses each key's lowest rollout index that
 //!   both models have, so its pairs stay independent.
-//! - Verdict: "tied" when the CI covers 0, else the better model.
+//! - Verdict: a model is better only when the paired CI excludes 0 and the
+//!   McNemar p is below 0.05, in the same direction; otherwise "no
+//!   significant difference" (saying so when the two disagree). The
+//!   verdict names the shared keys it rests on and flags fewer than
+//!   [`FEW_DISCORDANT`] discordant pairs.
+//! - Power: for a pair with no significant difference, the seeds per
+//!   (scenario, tier) cell a paired McNemar test needs to detect the
+//!   observed difference with 80% power ([`mcnemar_keys_for_power`]).
 
 use super::boot::{paired_ci, seed_for};
 use super::load::ModelData;
@@ -17,7 +24,7 @@ use super::tables::{Unit, tiers_label, units};
 use crate::export::{Cell, Column, Style, Table};
 use crate::par::par_map;
 use crate::scenario::Tier;
-use crate::stats::{Interval, mcnemar_exact};
+use crate::stats::{Interval, mcnemar_exact, mcnemar_keys_for_power};
 use serde::Serialize;
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -36,6 +43,43 @@ pub struct PairRow {
     pub b_only: usize,
     pub mcnemar_p: f64,
     pub verdict: String,
+    /// Whether the verdict names a better model (CI and McNemar agree).
+    pub significant: bool,
+    /// (scenario, tier) cells among the shared keys.
+    pub cells: usize,
+    /// Without a significant difference: seeds per cell for 80% power to
+    /// detect the observed difference (`None`: no difference observed, or
+    /// significant already).
+    pub seeds_for_power: Option<u64>,
+}
+
+/// Significance level of the paired verdict (two-sided; the CIs are 95%).
+pub(crate) const ALPHA: f64 = 0.05;
+
+/// Fewer discordant pairs than this: the verdict says so (the exact test has
+/// little power there).
+pub(crate) const FEW_DISCORDANT: usize = 20;
+
+/// The verdict on a pair: better only when the CI and the exact test agree.
+pub(crate) fn verdict(a: &str, b: &str, diff: &Interval, p: f64, keys: usize, discordant: usize) -> (String, bool) {
+    if keys == 0 {
+        return ("no shared seeds".into(), false);
+    }
+    let ci_says = if diff.lo > 0.0 {
+        Some(a)
+    } else if diff.hi < 0.0 {
+        Some(b)
+    } else {
+        None
+    };
+    let test_says = p < ALPHA;
+    let (head, significant) = match (ci_says, test_says) {
+        (Some(w), true) => (format!("{w} better"), true),
+        (None, false) => ("no significant difference".to_string(), false),
+        _ => ("no significant difference: CI and McNemar disagree".to_string(), false),
+    };
+    let few = if discordant < FEW_DISCORDANT { format!(", only {discordant} discordant") } else { String::new() };
+    (format!("{head} ({keys} keys{few})"), significant)
 }
 
 /// Compare `a` and `b` on their shared keys within `tiers`.
@@ -44,12 +88,14 @@ pub(crate) fn compare(a: &ModelData, b: &ModelData, tiers: &[Tier], resamples: u
     let ub = units(&b.episodes, tiers);
     let (mut va, mut vb) = (Vec::new(), Vec::new());
     let (mut a_only, mut b_only) = (0usize, 0usize);
+    let mut cells = std::collections::BTreeSet::new();
     let (mut i, mut j) = (0, 0);
     while i < ua.len() && j < ub.len() {
         match ua[i].key().cmp(&ub[j].key()) {
             std::cmp::Ordering::Less => i += 1,
             std::cmp::Ordering::Greater => j += 1,
             std::cmp::Ordering::Equal => {
+                cells.insert((ua[i].scenario, ua[i].tier));
                 va.push(ua[i].value());
                 vb.push(ub[j].value());
                 if let Some((sa, sb)) = first_shared_rollout(a, &ua[i], b, &ub[j]) {
@@ -67,15 +113,12 @@ pub(crate) fn compare(a: &ModelData, b: &ModelData, tiers: &[Tier], resamples: u
     let seed = seed_for(base, &format!("paired/{}/{}", a.label, b.label));
     let diff =
         paired_ci(&va, &vb, resamples, seed).unwrap_or(Interval { estimate: f64::NAN, lo: f64::NAN, hi: f64::NAN });
-    let verdict = if va.is_empty() {
-        "no shared seeds".to_string()
-    } else if diff.lo > 0.0 {
-        format!("{} better", a.label)
-    } else if diff.hi < 0.0 {
-        format!("{} better", b.label)
-    } else {
-        "tied".to_string()
-    };
+    let mcnemar_p = mcnemar_exact(a_only, b_only);
+    let (verdict, significant) = verdict(&a.label, &b.label, &diff, mcnemar_p, va.len(), a_only + b_only);
+    let seeds_for_power = (!significant)
+        .then(|| mcnemar_keys_for_power(a_only, b_only, va.len()))
+        .flatten()
+        .map(|k| k.div_ceil(cells.len().max(1) as u64));
     let mean = |v: &[f64]| if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 };
     PairRow {
         a: a.label.clone(),
@@ -86,8 +129,11 @@ pub(crate) fn compare(a: &ModelData, b: &ModelData, tiers: &[Tier], resamples: u
         diff,
         a_only,
         b_only,
-        mcnemar_p: mcnemar_exact(a_only, b_only),
+        mcnemar_p,
         verdict,
+        significant,
+        cells: cells.len(),
+        seeds_for_power,
     }
 }
 
@@ -128,6 +174,7 @@ pub(crate) fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -
             Column::new("B only", "b_only"),
             Column::new("McNemar p", "mcnemar_p").style(Style::PValue),
             Column::new("verdict", "verdict"),
+            Column::new("seeds for 80% power", "seeds_for_power"),
         ],
     );
     for r in rows {
@@ -142,12 +189,22 @@ pub(crate) fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -
             Cell::Int(r.b_only as u64),
             Cell::Float(r.mcnemar_p),
             Cell::text(&r.verdict),
+            match r.seeds_for_power {
+                Some(n) => Cell::Int(n),
+                None if r.significant => Cell::Blank,
+                None => Cell::Missing,
+            },
         ]);
     }
     t.note(format!(
         "shared: (scenario, tier, seed) keys both models have. CI: paired percentile bootstrap over the keys \
-         ({resamples} resamples); 'tied' when it covers 0. A only / B only: discordant pairs (one succeeded, the \
-         other failed) for the exact McNemar test."
+         ({resamples} resamples). A only / B only: discordant pairs (one succeeded, the other failed) for the exact \
+         McNemar test. A model is better only when the CI excludes 0 and McNemar p < 0.05 agree; fewer than \
+         {FEW_DISCORDANT} discordant pairs are flagged. Seeds for 80% power: for a pair without a significant \
+         difference, the seeds per (scenario, tier) a paired McNemar test at 0.05 needs to detect the observed \
+         difference 80% of the time (Connor 1987: n = (1.96 sqrt(psi) + 0.84 sqrt(psi - delta^2))^2 / delta^2 \
+         keys, psi the discordant share, delta the difference, over the cells); '-': no difference observed. \
+         eval extends a run in place (-n)."
     ));
     t
 }

@@ -79,6 +79,10 @@ fn mean_of(episodes: &[&Episode], f: impl Fn(&Episode) -> f64) -> f64 {
 // ---------------------------------------------------------------------------
 // Leaderboard
 
+/// The rule for success intervals at 0 and 1, under the tables that show one.
+pub(crate) const WILSON_NOTE: &str = "A success of 0.00 or 1.00 (every seed the same) has a Wilson score interval over \
+                                      the seeds instead of the percentile bootstrap, which collapses to a point there.";
+
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ScenarioCell {
     pub scenario: ScenarioKind,
@@ -314,6 +318,10 @@ impl Leaderboard {
                 }
             ));
         }
+        let at_bound = |x: f64| x == 0.0 || x == 1.0;
+        if self.rows.iter().any(|r| r.scenarios.iter().flatten().any(|c| at_bound(c.success.estimate))) {
+            t.note(WILSON_NOTE);
+        }
         if self.rows.iter().any(|r| r.scenarios.iter().any(Option::is_none)) {
             t.note(
                 "'-': the model has no episode of that scenario in scope; its average is over the scenarios it has.",
@@ -406,6 +414,9 @@ pub(crate) fn tier_table(rows: &[TierRow]) -> Table {
         ]);
     }
     t.note("n: episodes. DC: decision correctness. expert / floor: the reference policies' success on the same cell.");
+    if rows.iter().any(|r| r.success.estimate == 0.0 || r.success.estimate == 1.0) {
+        t.note(WILSON_NOTE);
+    }
     t
 }
 

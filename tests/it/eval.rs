@@ -178,7 +178,7 @@ fn kill_9_then_resume_gives_one_line_per_episode_and_the_same_summary() {
     // Running it a third time does nothing and changes nothing.
     let out = ok(eval(&server.base_url(), &killed, &args));
     assert_eq!(lines(&killed).len(), total);
-    assert!(String::from_utf8_lossy(&out.stdout).contains("| yield_standoff | 1 | 8 |"));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("| yield_standoff | 1 | 8x1 |"));
 }
 
 #[test]
@@ -456,7 +456,7 @@ fn retries_running_out_are_infrastructure_errors_rerun_later() {
     let r = run(eval(&url, &out, &args));
     assert_eq!(r.status.code(), Some(1));
     let stdout = String::from_utf8_lossy(&r.stdout);
-    assert!(stdout.contains("| pedestrian_feint | 1 | 0 | - |") && stdout.contains("| 3 |"), "{stdout}");
+    assert!(stdout.contains("| pedestrian_feint | 1 | 0x0 | - |") && stdout.contains("| 3 |"), "{stdout}");
     assert_eq!(std::fs::read_to_string(out.join("run/rollouts.jsonl")).unwrap(), "");
     assert_eq!(std::fs::read_to_string(out.join("run/errors.jsonl")).unwrap().lines().count(), 3);
     down.store(false, std::sync::atomic::Ordering::SeqCst);

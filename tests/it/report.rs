@@ -299,8 +299,15 @@ fn paired_comparison_on_a_constructed_pair() {
     assert_eq!((p.a_only, p.b_only), (8, 2));
     assert_eq!(p.mcnemar_p, mcnemar_exact(8, 2));
     assert!(p.diff.lo < p.diff.estimate && p.diff.estimate < p.diff.hi);
-    let tied = p.diff.lo <= 0.0 && p.diff.hi >= 0.0;
-    assert_eq!(p.verdict, if tied { "tied".to_string() } else { "a better".to_string() }, "{p:?}");
+    // McNemar p = 2 P(X <= 2 | 10, 1/2) = 0.109: whatever the CI says, no significant difference, and the
+    // verdict names its 40 keys and its 10 discordant pairs.
+    assert!(p.mcnemar_p > 0.05);
+    assert!(p.verdict.starts_with("no significant difference"), "{p:?}");
+    assert!(p.verdict.ends_with("(40 keys, only 10 discordant)"), "{p:?}");
+    assert!(!p.significant);
+    // Power: p10 = 8/40, p01 = 2/40 -> psi 0.25, delta 0.15:
+    // (1.96 * 0.5 + 0.8416 * sqrt(0.2275))^2 / 0.0225 = 84.8 -> 85 keys, over 1 cell.
+    assert_eq!(p.seeds_for_power, Some(85));
     // A clear gap is not tied.
     let root2 = scratch("report-paired2");
     let run2 = |model: &str, wins: &dyn Fn(u64) -> bool| {
@@ -314,8 +321,35 @@ fn paired_comparison_on_a_constructed_pair() {
     run2("weak", &|s| s < 20);
     let built = report::build_from(load_dirs(std::slice::from_ref(&root2)).unwrap(), refs(), &opts()).unwrap();
     let p = &built.report.paired[0];
-    assert_eq!((p.a_only, p.b_only, p.verdict.as_str()), (35, 0, "strong better"));
+    assert_eq!((p.a_only, p.b_only, p.verdict.as_str()), (35, 0, "strong better (60 keys)"));
     assert!(p.diff.lo > 0.0 && p.mcnemar_p < 1e-9);
+    assert_eq!((p.significant, p.seeds_for_power), (true, None));
+
+    // A CI that excludes 0 with an exact test that does not: 4 discordant pairs of 200, all one way.
+    // +0.02 [+0.005, +0.04] but McNemar p = 2/16 = 0.125: no significant difference.
+    let root3 = scratch("report-paired3");
+    let run3 = |model: &str, wins: &dyn Fn(u64) -> bool| {
+        let h = hash(model, None);
+        let lines: Vec<String> = (0..200)
+            .map(|s| line(model, &h, ys, 1, s, 0, if wins(s) { Outcome::Success } else { Outcome::Timeout }))
+            .collect();
+        write_run(&root3.join(model), &RunSpec { seeds: 200, ..spec(model) }, &lines);
+    };
+    run3("hi", &|s| s < 104);
+    run3("lo", &|s| s < 100);
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root3)).unwrap(), refs(), &opts()).unwrap();
+    let p = &built.report.paired[0];
+    assert_eq!((p.a_only, p.b_only), (4, 0));
+    assert!((p.mcnemar_p - 0.125).abs() < 1e-12);
+    assert!(p.diff.lo > 0.0, "the bootstrap CI alone would call it: {p:?}");
+    assert_eq!(p.verdict, "no significant difference: CI and McNemar disagree (200 keys, only 4 discordant)");
+    // p10 = 0.02, p01 = 0: (1.96 sqrt(0.02) + 0.8416 sqrt(0.0196))^2 / 0.0004 = 390.1 -> 391.
+    assert_eq!(p.seeds_for_power, Some(391));
+    let table = built.report.render_table("paired", Format::Table).unwrap();
+    assert!(
+        table.contains("seeds for 80% power") && table.trim_end().lines().nth(3).unwrap().ends_with(" 391"),
+        "{table}"
+    );
 }
 
 #[test]
@@ -343,11 +377,12 @@ fn leaderboard_snapshot() {
     | rank | model | avg. [95% CI] | yield_standoff [95% CI] | pedestrian_feint [95% CI] | contested_merge [95% CI] | yield DC | episodes |
     |---|---|---|---|---|---|---|---|
     | 1 | alpha | 0.65 [0.53, 0.78] | 0.90 [0.75, 1.00] | 0.60 [0.40, 0.80] | 0.45 [0.25, 0.65] | 0.82 | 60 |
-    | 2 | beta | 0.60 [0.48, 0.73] | 1.00 [1.00, 1.00] | 0.30 [0.10, 0.50] | 0.50 [0.30, 0.70] | 0.82 | 60 |
+    | 2 | beta | 0.60 [0.48, 0.73] | 1.00 [0.84, 1.00] | 0.30 [0.10, 0.50] | 0.50 [0.30, 0.70] | 0.82 | 60 |
     |  | expert reference | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 |  |
     |  | always_proceed floor | 0.50 | 0.50 | 0.50 | 0.50 | 0.50 |  |
 
-    Per-scenario CIs resample seeds (10000 resamples); the average's CI resamples seeds jointly across scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: test references.
+    Per-scenario CIs resample seeds (10000 resamples); the average's CI resamples seeds jointly across scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: test references.  
+    A success of 0.00 or 1.00 (every seed the same) has a Wilson score interval over the seeds instead of the percentile bootstrap, which collapses to a point there.
     ");
 }
 
@@ -452,13 +487,15 @@ fn ok(mut c: Command) -> Output {
 fn end_to_end() -> (PathBuf, Output) {
     let root = scratch("report-e2e");
     let runs = root.join("runs");
+    // always_proceed: 2 rollouts per seed, so eval's and report's intervals are compared with r > 1.
     for (policy, extra) in [("expert", &[][..]), ("always_proceed", &["--fail-rate", "0.02"][..])] {
+        let rollouts = if policy == "expert" { "1" } else { "2" };
         let server = Server::start(&[&["--policy", policy][..], extra].concat());
         let out = negotiator()
             .args(["eval", "--base-url", &server.base_url(), "--model", policy, "--quiet", "--output"])
             .arg(&runs)
             .args(["--run-name", policy, "--scenario", "all", "--tier", "all", "-n", "4", "-c", "8"])
-            .args(["--max-retries", "0", "--backoff-base-ms", "1"])
+            .args(["--max-retries", "0", "--backoff-base-ms", "1", "-r", rollouts])
             .output()
             .unwrap();
         assert!(matches!(out.status.code(), Some(0 | 1)), "{}", String::from_utf8_lossy(&out.stderr));
@@ -540,7 +577,8 @@ fn end_to_end_report_files_and_offline_html() {
     let errors = std::fs::read_to_string(root.join("runs/always_proceed/errors.jsonl")).unwrap_or_default();
     assert_eq!(cost["infra_errors"].as_u64().unwrap() as usize > 0, !errors.trim().is_empty());
 
-    // With one rollout per seed, a (scenario, tier) cell's interval is the one in eval's summary.
+    // A (scenario, tier) cell's interval is the one in eval's summary, with 1 and with 2 rollouts per seed
+    // (both bootstrap over seeds with the cell's seed), and eval prints n as seeds x rollouts.
     for model in ["expert", "always_proceed"] {
         let path = root.join(format!("runs/{model}/summary.json"));
         let summary: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
@@ -552,6 +590,7 @@ fn end_to_end_report_files_and_offline_html() {
                 .find(|r| r["model"] == model && r["scenario"] == cell["scenario"] && r["tier"] == cell["tier"])
                 .unwrap();
             assert_eq!(row["success"], cell["success"], "{model} {}", cell["scenario"]);
+            assert_eq!(row["seeds"], cell["seeds"], "{model} {}", cell["scenario"]);
         }
     }
 
