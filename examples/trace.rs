@@ -36,9 +36,13 @@ fn main() {
             None => p.act(&o),
         };
         let (ed, others) = match o.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other } => {
-                (ego_to_conflict_m, format!("o {:6.1} {:5.1}", other.now.position_m, other.now.velocity_mps))
-            }
+            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => (
+                ego_to_conflict_m,
+                format!(
+                    "o {:6.1} {:5.1} f {:6.1} {:5.1}",
+                    other.now.position_m, other.now.velocity_mps, follower.now.position_m, follower.now.velocity_mps
+                ),
+            ),
             Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
                 (ego_to_crosswalk_m, format!("p {:6.2} {:5.2}", pedestrian.now.position_m, pedestrian.now.velocity_mps))
             }

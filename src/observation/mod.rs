@@ -48,8 +48,9 @@ pub enum Scene {
     /// `ego_to_conflict_m`: the ego's front bumper to the crossing lane's
     /// near edge. `other.position_m`: the other car's front bumper to the
     /// ego lane's near edge (negative once it has entered; it has cleared
-    /// the conflict zone below -`CONFLICT_ZONE_M`).
-    YieldStandoff { ego_to_conflict_m: f64, other: Track },
+    /// the conflict zone below -`CONFLICT_ZONE_M`). `follower`: the car
+    /// behind it on the crossing road, measured the same way.
+    YieldStandoff { ego_to_conflict_m: f64, other: Track, follower: Track },
     /// `ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's
     /// crossing line. `pedestrian.position_m`: lateral position from the
     /// near kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far
@@ -119,9 +120,11 @@ impl Observation {
             past: t.past.map(|s| Sample { position_m: r1(s.position_m), velocity_mps: r1(s.velocity_mps) }),
         };
         let scene = match self.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other } => {
-                Scene::YieldStandoff { ego_to_conflict_m: r1(ego_to_conflict_m), other: track(other) }
-            }
+            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => Scene::YieldStandoff {
+                ego_to_conflict_m: r1(ego_to_conflict_m),
+                other: track(other),
+                follower: track(follower),
+            },
             Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
                 Scene::PedestrianFeint { ego_to_crosswalk_m: r1(ego_to_crosswalk_m), pedestrian: track(pedestrian) }
             }

@@ -69,6 +69,7 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         ScenarioKind::YieldStandoff => Scene::YieldStandoff {
             ego_to_conflict_m: ego[2],
             other: track(text, "Other car", "Other car over the last 2 s (oldest first)")?,
+            follower: track(text, "Car behind it", "Car behind it over the last 2 s (oldest first)")?,
         },
         ScenarioKind::PedestrianFeint => Scene::PedestrianFeint {
             ego_to_crosswalk_m: ego[2],

@@ -14,7 +14,7 @@ fn f2(x: f64) -> String {
     format!("{:.2}", round_to(x, 2))
 }
 
-pub(super) const YIELD_SITUATION: &str = "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; another car approaches on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (a car has fully crossed below -6.7 m).";
+pub(super) const YIELD_SITUATION: &str = "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (a car has fully crossed below -6.7 m).";
 pub(super) const PEDESTRIAN_SITUATION: &str = "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian's position is lateral, from the near kerb: negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line.";
 pub(super) const MERGE_SITUATION: &str = "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you). Your body starts to overlap the lane at the merge point.";
 
@@ -63,8 +63,10 @@ pub fn render_scene(obs: &Observation) -> String {
         f1(e.speed_limit_mps)
     );
     match &obs.scene {
-        Scene::YieldStandoff { other, .. } => {
-            track_lines(&mut out, "Other car", other, |p, v| format!("{p} m to the conflict zone, speed {v} m/s"))
+        Scene::YieldStandoff { other, follower, .. } => {
+            let to_zone = |p: &str, v: &str| format!("{p} m to the conflict zone, speed {v} m/s");
+            track_lines(&mut out, "Other car", other, to_zone);
+            track_lines(&mut out, "Car behind it", follower, to_zone);
         }
         Scene::PedestrianFeint { pedestrian, .. } => {
             track_lines(&mut out, "Pedestrian", pedestrian, |p, v| format!("at {p} m (lateral), velocity {v} m/s"))

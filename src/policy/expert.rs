@@ -22,8 +22,8 @@ impl Policy for Expert {
         let v = obs.ego.speed_mps;
         let v_max = obs.ego.speed_limit_mps;
         match &obs.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other } => {
-                yield_standoff::expert(v, v_max, *ego_to_conflict_m, other)
+            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
+                yield_standoff::expert(v, v_max, *ego_to_conflict_m, other, follower, obs.last_action)
             }
             Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
                 pedestrian_feint::expert(v, v_max, *ego_to_crosswalk_m, pedestrian)
@@ -45,8 +45,8 @@ impl Policy for CueFollower {
         let v = obs.ego.speed_mps;
         let v_max = obs.ego.speed_limit_mps;
         match &obs.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other } => {
-                yield_standoff::cue_follower(v, v_max, *ego_to_conflict_m, other)
+            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
+                yield_standoff::cue_follower(v, v_max, *ego_to_conflict_m, other, follower)
             }
             Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
                 pedestrian_feint::cue_follower(v, v_max, *ego_to_crosswalk_m, pedestrian)

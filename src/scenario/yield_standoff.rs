@@ -1,17 +1,43 @@
-//! `yield_standoff`: an unsignalled T-intersection (a game of chicken). The
-//! other car is `committed` (drives through) or a `yielder` (brakes to a stop
-//! before the conflict zone and waits for the ego).
+//! `yield_standoff`: an unsignalled T-intersection (a game of chicken). Two
+//! cars approach on the crossing road, one behind the other. The first is
+//! `committed` (drives through) or a `yielder` (stops at its line and waits
+//! for the ego, but only while the ego comes: once the ego has hung back for
+//! the yielder's patience, it takes its turn). The car behind it follows it
+//! (Newell's car-following model: the leader's trajectory, shifted by a lag
+//! and a jam spacing), so it queues behind a yielder and drives through a
+//! second or so behind a committed car.
 //!
-//! Frame: the ego drives along +y at x = 0, the other car along +x at y = 0;
-//! positions are box centres, the crossing centre is the origin.
+//! Why each blind play loses (the ego only chooses *when* it reaches the
+//! zone, from its own state and the clock):
+//! - racing: a committed car reaches the zone when a full-throttle ego
+//!   does, under every geometry drawn, and the car behind it follows too
+//!   closely for the ego to slip between them;
+//! - arriving after the committed pair: the ego has to hang back for that,
+//!   and a yielder that sees the ego hang back once it has stopped takes its
+//!   turn at once (patience drawn per seed, short). It pulls away from rest
+//!   before the committed pair would have cleared, so the late ego meets it
+//!   in the zone;
+//! - waiting for both: a yielder that took its turn pulls away from rest
+//!   with its follower queued behind it, so the pair clears the zone seconds
+//!   after a committed pair does; the turn budget ends in between (the
+//!   expert giving way to a committed pair finishes before it, an ego that
+//!   outwaits a yielding pair after it);
+//! - tier 3 (both cars brake from the start as if to stop): racing makes the
+//!   committed car re-accelerate into the zone (the ego's motion shows it
+//!   will enter within the commit horizon); hanging back makes it roll
+//!   through at its floor speed and then drive on; a yielder stops and
+//!   behaves as on tier 1.
+//!
+//! Frame: the ego drives along +y at x = 0, the crossing cars along +x at
+//! y = 0; positions are box centres, the crossing centre is the origin.
 
 use super::world::{Contact, EgoApproach, History, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::action::Action;
+use crate::action::{Action, Maneuver};
 use crate::observation::{Sample, Scene, Track};
 use crate::policy::{go, hedge};
 use crate::rng::EpisodeRng;
-use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
+use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, DT, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
 use serde::{Deserialize, Serialize};
 
 /// Centre distance from the crossing centre at which boxes start to overlap.
@@ -40,37 +66,65 @@ pub struct YieldEgo {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct YieldOther {
-    pub cruise_speed_mps: Range,
-    /// Arrival of the other car at the zone relative to a full-throttle ego
-    /// (s): near zero makes "always proceed" meet a committed car.
+    /// Both crossing cars approach at this speed (m/s).
+    pub approach_speed_mps: Range,
+    /// When the first car would reach the zone at that speed, relative to a
+    /// full-throttle ego (s): a committed car is in the zone when a racing
+    /// ego gets there.
     pub arrival_offset_s: Range,
+    /// The car behind follows the first one's trajectory this much later
+    /// (s) ...
+    pub follower_lag_s: Range,
+    /// ... and this far behind it, centre to centre (m): its spacing when
+    /// both are at rest.
+    pub jam_spacing_m: f64,
     /// A yielder stops this far before the zone (m).
     pub stop_line_m: f64,
-    /// A stopped yielder waits this long for an ego that does not come (s).
-    pub patience_s: f64,
-    /// Acceleration of a car driving off (m/s^2).
+    /// A yielder drives on until a stop at its line takes this braking rate
+    /// (m/s^2): the moment its disposition shows.
+    pub stop_decel_mps2: f64,
+    /// A yielder counts the ego as coming while it is not braking, drives at
+    /// least 1.5 m/s and is due at the zone within this long (s), or can no
+    /// longer stop short of it ...
+    pub coming_eta_s: f64,
+    /// ... and, once stopped, takes its turn after the ego has hung back for
+    /// this long in all (s), drawn per episode.
+    pub patience_s: Range,
+    /// Acceleration of a car pulling away from its line (m/s^2) ...
     pub go_accel_mps2: f64,
+    /// ... up to this speed (m/s).
+    pub go_speed_mps: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct YieldTier2 {
-    /// Both dispositions cruise identically until this close to the zone (m).
-    pub reveal_distance_m: Range,
+    /// Delayed reveal: a yielder brakes later and harder (m/s^2).
+    pub stop_decel_mps2: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct YieldTier3 {
-    /// Both dispositions brake as if to stop at the stop line; the planned
-    /// stop comes this many times later than a full-throttle ego's arrival.
+    /// Both dispositions were already braking when the ego arrived, on a
+    /// profile that would stop at the line this many times later than a
+    /// full-throttle ego's arrival.
     pub stop_time_factor: Range,
     /// A bluffer never slows below this (m/s): it rolls, it never stops.
     pub floor_speed_mps: f64,
-    /// The ego "commits" when it proceeds with less than this to the zone (s).
+    /// The ego "commits" when its motion brings it into the zone within
+    /// this long (s) ...
     pub commit_horizon_s: f64,
-    /// A bluffer re-accelerates this hard once the ego commits (m/s^2).
+    /// ... and a bluffer then re-accelerates this hard (m/s^2).
     pub bluff_accel_mps2: f64,
+    /// A bluffer at its floor speed drives on once the ego has not come for
+    /// this long (s), drawn per episode ...
+    pub hold_s: Range,
+    /// ... at this acceleration (m/s^2).
+    pub drive_on_accel_mps2: f64,
+    /// A tier-3 yielder's patience once stopped (s), drawn per episode:
+    /// its stop is the first sign, so the ego needs longer to answer it.
+    pub patience_s: Range,
 }
 
 impl YieldParams {
@@ -79,16 +133,26 @@ impl YieldParams {
         c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
         c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.0, self.episode.speed_limit_mps)?;
         c.within("ego.goal_past_zone_m", self.ego.goal_past_zone_m, HALF_ZONE, 200.0)?;
-        c.range_within("other.cruise_speed_mps", self.other.cruise_speed_mps, 1.0, 25.0)?;
-        c.range_within("other.arrival_offset_s", self.other.arrival_offset_s, -5.0, 5.0)?;
-        c.within("other.stop_line_m", self.other.stop_line_m, 0.5, 10.0)?;
-        c.within("other.patience_s", self.other.patience_s, 0.0, 60.0)?;
-        c.within("other.go_accel_mps2", self.other.go_accel_mps2, 0.5, 5.0)?;
-        c.range_within("tier2.reveal_distance_m", self.tier2.reveal_distance_m, 5.0, 100.0)?;
-        c.range_within("tier3.stop_time_factor", self.tier3.stop_time_factor, 1.0, 4.0)?;
-        c.within("tier3.floor_speed_mps", self.tier3.floor_speed_mps, 0.5, 10.0)?;
-        c.within("tier3.commit_horizon_s", self.tier3.commit_horizon_s, 0.1, 5.0)?;
-        c.within("tier3.bluff_accel_mps2", self.tier3.bluff_accel_mps2, 0.5, 6.0)
+        let o = &self.other;
+        c.range_within("other.approach_speed_mps", o.approach_speed_mps, 1.0, 20.0)?;
+        c.range_within("other.arrival_offset_s", o.arrival_offset_s, -5.0, 5.0)?;
+        c.range_within("other.follower_lag_s", o.follower_lag_s, 0.0, 5.0)?;
+        c.within("other.jam_spacing_m", o.jam_spacing_m, CAR_LENGTH + 0.5, 30.0)?;
+        c.within("other.stop_line_m", o.stop_line_m, 0.5, 10.0)?;
+        c.within("other.stop_decel_mps2", o.stop_decel_mps2, 0.5, 8.0)?;
+        c.within("other.coming_eta_s", o.coming_eta_s, 0.1, 10.0)?;
+        c.range_within("other.patience_s", o.patience_s, 0.0, 30.0)?;
+        c.within("other.go_accel_mps2", o.go_accel_mps2, 0.5, 5.0)?;
+        c.within("other.go_speed_mps", o.go_speed_mps, 1.0, 20.0)?;
+        c.within("tier2.stop_decel_mps2", self.tier2.stop_decel_mps2, 0.5, 8.0)?;
+        let t3 = &self.tier3;
+        c.range_within("tier3.stop_time_factor", t3.stop_time_factor, 0.5, 4.0)?;
+        c.within("tier3.floor_speed_mps", t3.floor_speed_mps, 0.5, 10.0)?;
+        c.within("tier3.commit_horizon_s", t3.commit_horizon_s, 0.1, 5.0)?;
+        c.within("tier3.bluff_accel_mps2", t3.bluff_accel_mps2, 0.5, 6.0)?;
+        c.range_within("tier3.hold_s", t3.hold_s, 0.0, 30.0)?;
+        c.within("tier3.drive_on_accel_mps2", t3.drive_on_accel_mps2, 0.5, 6.0)?;
+        c.range_within("tier3.patience_s", t3.patience_s, 0.0, 30.0)
     }
 }
 
@@ -96,16 +160,43 @@ impl YieldParams {
 enum Phase {
     /// Constant speed.
     Cruise,
-    /// Braking to stop at the stop line (yielder), or the tier-3 common
-    /// profile at a fixed rate (either disposition).
+    /// A yielder braking to stop at its line, or the tier-3 common profile
+    /// (either disposition, until it shows).
     Braking,
-    Stopped {
-        since: f64,
-    },
-    /// Driving off or through at `go_accel` (or the bluff's re-acceleration).
-    Going {
-        accel: f64,
-    },
+    /// A yielder at its line, waiting for the ego.
+    Stopped,
+    /// A tier-3 bluffer rolling at its floor speed since `since`.
+    Floor { since: f64 },
+    /// Driving off or through at `accel`.
+    Going { accel: f64 },
+}
+
+/// The first car's past, sampled every physics step: the follower replays
+/// it (Newell's model). Before t = 0 the car moved at `v0` under constant
+/// acceleration `a0`.
+#[derive(Debug, Clone)]
+struct Trajectory {
+    s0: f64,
+    v0: f64,
+    a0: f64,
+    /// (s, v) after each step.
+    steps: Vec<(f64, f64)>,
+}
+
+impl Trajectory {
+    /// Position and speed at time `t` (s), linear between steps.
+    fn at(&self, t: f64) -> (f64, f64) {
+        if t <= 0.0 {
+            let v = (self.v0 + self.a0 * t).max(0.0);
+            return (self.s0 + self.v0 * t + 0.5 * self.a0 * t * t, v);
+        }
+        let k = t / DT;
+        let i = k.floor() as usize;
+        let frac = k - i as f64;
+        let point = |j: usize| if j == 0 { (self.s0, self.v0) } else { self.steps[(j - 1).min(self.steps.len() - 1)] };
+        let (a, b) = (point(i), point(i + 1));
+        (a.0 + frac * (b.0 - a.0), a.1 + frac * (b.1 - a.1))
+    }
 }
 
 pub struct YieldWorld {
@@ -118,45 +209,80 @@ pub struct YieldWorld {
     phase: Phase,
     /// Fixed deceleration of the tier-3 common braking profile.
     profile_decel: f64,
-    reveal_distance: f64,
     revealed: bool,
+    /// Hang-back the yielder tolerates once stopped, and how much it saw.
+    patience: f64,
+    hung_back: f64,
+    /// How long a tier-3 bluffer rolls at its floor for an ego that hangs back.
+    hold: f64,
+    /// Newell follower: lag (s) and jam spacing (m) behind the first car.
+    lag: f64,
+    spacing: f64,
+    path: Trajectory,
+    follower: Body,
     history: History,
+    follower_history: History,
+    /// Time of the last physics step (s).
+    now: f64,
 }
 
 impl YieldWorld {
     pub fn new(params: &YieldParams, tier: Tier, disposition: Disposition, geometry: &mut EpisodeRng) -> Self {
         let d_ego = params.ego.start_distance_m.sample(geometry);
         let v_ego = params.ego.start_speed_mps.sample(geometry);
-        let cruise = params.other.cruise_speed_mps.sample(geometry);
+        let approach = params.other.approach_speed_mps.sample(geometry);
         let offset = params.other.arrival_offset_s.sample(geometry);
-        let reveal_distance = params.tier2.reveal_distance_m.sample(geometry);
+        let lag = params.other.follower_lag_s.sample(geometry);
+        let patience = match tier {
+            Tier::T3 => params.tier3.patience_s.sample(geometry),
+            _ => params.other.patience_s.sample(geometry),
+        };
         let stop_factor = params.tier3.stop_time_factor.sample(geometry);
+        let hold = params.tier3.hold_s.sample(geometry);
         let t_ego = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
         let arrival = (t_ego + offset).max(0.5);
         let stop_line = params.other.stop_line_m;
         let (d_other, phase, profile_decel) = match tier {
-            Tier::T1 | Tier::T2 => (cruise * arrival, Phase::Cruise, 0.0),
+            Tier::T1 | Tier::T2 => (approach * arrival, Phase::Cruise, 0.0),
             Tier::T3 => {
                 // Uniform braking to the stop line over `stop_factor * arrival` s.
-                let braking_distance = 0.5 * cruise * stop_factor * arrival;
-                (stop_line + braking_distance, Phase::Braking, stopping_decel(cruise, braking_distance))
+                let braking_distance = 0.5 * approach * stop_factor * arrival;
+                (stop_line + braking_distance, Phase::Braking, stopping_decel(approach, braking_distance))
             }
         };
         let ego_start = Body::new(-HALF_ZONE - d_ego, v_ego);
-        let other = Body::new(-HALF_ZONE - d_other, cruise);
-        let history = History::steady(Sample { position_m: d_other, velocity_mps: cruise }, -cruise);
+        let other = Body::new(-HALF_ZONE - d_other, approach);
+        let path = Trajectory { s0: other.s, v0: approach, a0: -profile_decel, steps: Vec::with_capacity(512) };
+        let spacing = params.other.jam_spacing_m;
+        let (f_s, f_v) = path.at(-lag);
+        let follower = Body::new(f_s - spacing, f_v);
+        // Both cars moved as they move now before t = 0: steady on tiers 1
+        // and 2, braking on tier 3 (for the junction, not for the ego).
+        let observed = |b: &Body| Sample { position_m: -HALF_ZONE - b.s, velocity_mps: b.v };
+        let past = |b: &Body| match tier {
+            Tier::T3 => History::braking(observed(b), profile_decel, -1.0),
+            _ => History::steady(observed(b), -b.v),
+        };
         YieldWorld {
             tier,
             disposition,
             params: params.clone(),
             ego_start,
+            history: past(&other),
+            follower_history: past(&follower),
             other,
-            cruise,
+            cruise: approach,
             phase,
             profile_decel,
-            reveal_distance,
-            revealed: tier == Tier::T1,
-            history,
+            revealed: false,
+            patience,
+            hung_back: 0.0,
+            hold,
+            lag,
+            spacing,
+            path,
+            follower,
+            now: 0.0,
         }
     }
 
@@ -164,28 +290,84 @@ impl YieldWorld {
         -HALF_ZONE - self.other.s
     }
 
-    fn yielder_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
+    fn approach(&self, ego: &Body) -> EgoApproach {
+        EgoApproach::new(-HALF_ZONE - ego.s, ego)
+    }
+
+    /// Whether the ego's motion says it is coming through first: it can no
+    /// longer stop short of the zone, or it is not braking, drives at least
+    /// 1.5 m/s and is due within `coming_eta_s`.
+    fn ego_coming(&self, ego: &Body) -> bool {
+        let a = self.approach(ego);
+        if a.to_conflict <= 0.0 {
+            return true;
+        }
+        a.beyond_stopping()
+            || (ego.a > -0.5
+                && ego.v >= 1.5
+                && a.eta(self.params.episode.speed_limit_mps) <= self.params.other.coming_eta_s)
+    }
+
+    /// A yielder: drive on until a stop at the line takes its braking rate,
+    /// brake to the line and wait there for an ego that comes. Once the ego
+    /// has hung back for its patience in all, it takes its turn (never in
+    /// front of an ego that can no longer stop); it also drives on once the
+    /// ego has passed.
+    fn yielder_accel(&mut self, ego: &Body, dt: f64) -> f64 {
         let to_line = self.other_to_zone() - self.params.other.stop_line_m;
+        let rate = match self.tier {
+            Tier::T2 => self.params.tier2.stop_decel_mps2,
+            _ => self.params.other.stop_decel_mps2,
+        };
+        if self.phase == Phase::Cruise && stopping_decel(self.other.v, to_line) >= rate {
+            self.phase = Phase::Braking;
+            self.revealed = true;
+        }
+        if self.phase == Phase::Braking && self.other.v <= 0.0 {
+            self.phase = Phase::Stopped;
+        }
+        if self.phase == Phase::Stopped {
+            if !self.ego_coming(ego) {
+                self.hung_back += dt;
+            }
+            let passed = ego.s > HALF_ZONE;
+            let turn = self.hung_back + 1e-9 >= self.patience && !self.approach(ego).beyond_stopping();
+            if passed || turn {
+                self.phase = Phase::Going { accel: self.params.other.go_accel_mps2 };
+            }
+        }
         match self.phase {
-            Phase::Cruise => 0.0,
-            Phase::Braking => {
-                if self.other.v <= 0.0 {
-                    self.phase = Phase::Stopped { since: t };
-                    0.0
-                } else {
-                    -stopping_decel(self.other.v, to_line).min(8.0)
-                }
+            Phase::Cruise | Phase::Stopped | Phase::Floor { .. } => 0.0,
+            Phase::Braking if self.tier == Tier::T3 && self.other.v > self.params.tier3.floor_speed_mps => {
+                -self.profile_decel
             }
-            Phase::Stopped { since } => {
-                let ego_cleared = ego.s > HALF_ZONE;
-                let ego_to_zone = -HALF_ZONE - ego.s;
-                let ego_entering = ego_to_zone < 3.0 && ego.v > 0.3 && !ego_cleared;
-                if ego_cleared || (t - since >= self.params.other.patience_s && !ego_entering) {
-                    self.phase = Phase::Going { accel: self.params.other.go_accel_mps2 };
-                }
-                0.0
+            Phase::Braking => -stopping_decel(self.other.v, to_line.max(0.01)).min(8.0),
+            Phase::Going { accel } => track_speed(self.other.v, self.params.other.go_speed_mps, accel, 3.0, dt),
+        }
+    }
+
+    /// The tier-3 bluffer: the common braking profile down to its floor,
+    /// then rolling on; it re-accelerates hard once the ego's motion shows
+    /// it will enter within the commit horizon, and drives on once it has
+    /// rolled at its floor for `hold` without the ego coming.
+    fn bluffer_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
+        let t3 = &self.params.tier3;
+        let a = self.approach(ego);
+        let commits = a.to_conflict > 0.0 && ego.v > 1.0 && a.eta(self.params.episode.speed_limit_mps) < t3.commit_horizon_s;
+        match self.phase {
+            Phase::Braking | Phase::Floor { .. } if commits => {
+                self.phase = Phase::Going { accel: t3.bluff_accel_mps2 };
             }
+            Phase::Braking if self.other.v <= t3.floor_speed_mps => self.phase = Phase::Floor { since: t },
+            Phase::Floor { since } if t - since >= self.hold && !self.ego_coming(ego) => {
+                self.phase = Phase::Going { accel: t3.drive_on_accel_mps2 };
+            }
+            _ => {}
+        }
+        match self.phase {
+            Phase::Braking => -self.profile_decel,
             Phase::Going { accel } => track_speed(self.other.v, self.cruise, accel, 3.0, dt),
+            _ => 0.0,
         }
     }
 }
@@ -200,76 +382,60 @@ impl World for YieldWorld {
     }
 
     fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
-        let to_zone = self.other_to_zone();
         let accel = match (self.tier, self.disposition) {
-            (Tier::T1, Disposition::Committed) => 0.0,
-            (Tier::T1, _) => {
-                if self.phase == Phase::Cruise {
-                    self.phase = Phase::Braking;
-                }
-                self.yielder_accel(ego, t, dt)
+            (Tier::T1 | Tier::T2, Disposition::Committed) => 0.0,
+            (Tier::T1 | Tier::T2, _) => self.yielder_accel(ego, dt),
+            (Tier::T3, Disposition::Committed) => {
+                let a = self.bluffer_accel(ego, t, dt);
+                // The bluff shows once the car stops slowing above the floor
+                // a yielder brakes through, or re-accelerates.
+                self.revealed |= !matches!(self.phase, Phase::Braking);
+                a
             }
-            (Tier::T2, disposition) => {
-                if !self.revealed && to_zone <= self.reveal_distance {
-                    self.revealed = true;
-                    if disposition == Disposition::Yielder {
-                        self.phase = Phase::Braking;
-                    }
-                }
-                if disposition == Disposition::Committed { 0.0 } else { self.yielder_accel(ego, t, dt) }
-            }
-            (Tier::T3, disposition) => {
-                // The ego commits when its motion (speed and acceleration)
-                // brings it into the zone within the commit horizon.
-                let approach = EgoApproach::new(-HALF_ZONE - ego.s, ego);
-                let ego_commits = approach.to_conflict > 0.0
-                    && ego.v > 1.0
-                    && approach.eta(self.params.episode.speed_limit_mps) < self.params.tier3.commit_horizon_s;
-                let at_floor = self.other.v <= self.params.tier3.floor_speed_mps;
-                if !self.revealed && (ego_commits || at_floor) {
-                    self.revealed = true;
-                }
-                match disposition {
-                    Disposition::Committed => match self.phase {
-                        Phase::Braking if ego_commits => {
-                            self.phase = Phase::Going { accel: self.params.tier3.bluff_accel_mps2 };
-                            self.params.tier3.bluff_accel_mps2
-                        }
-                        Phase::Braking if at_floor => 0.0,
-                        Phase::Braking => -self.profile_decel,
-                        Phase::Going { accel } => track_speed(self.other.v, self.cruise, accel, 3.0, dt),
-                        _ => 0.0,
-                    },
-                    _ => {
-                        if !self.revealed && self.phase == Phase::Braking {
-                            -self.profile_decel
-                        } else {
-                            self.yielder_accel(ego, t, dt)
-                        }
-                    }
-                }
+            (Tier::T3, _) => {
+                self.revealed |= self.other.v < self.params.tier3.floor_speed_mps;
+                self.yielder_accel(ego, dt)
             }
         };
         self.other.advance(accel, dt);
+        self.path.steps.push((self.other.s, self.other.v));
+        self.now = t + dt;
+        let (s, v) = self.path.at(self.now - self.lag);
+        let previous = self.follower.v;
+        self.follower = Body { s: s - self.spacing, v, a: (v - previous) / dt };
     }
 
     fn contact(&self, ego: &Body) -> Contact {
         let e = car_box(0.0, ego.s, false);
-        let o = car_box(self.other.s, 0.0, true);
-        let ttc = crossing_ttc(
-            -HALF_ZONE - ego.s,
-            HALF_ZONE - ego.s,
-            ego.v,
-            -HALF_ZONE - self.other.s,
-            HALF_ZONE - self.other.s,
-            self.other.v,
-        );
-        Contact { gap_m: e.gap(&o), ttc_s: ttc, collision: e.overlaps(&o) }
+        let mut contact = Contact { gap_m: f64::INFINITY, ttc_s: None, collision: false };
+        for car in [&self.other, &self.follower] {
+            let o = car_box(car.s, 0.0, true);
+            let ttc = crossing_ttc(
+                -HALF_ZONE - ego.s,
+                HALF_ZONE - ego.s,
+                ego.v,
+                -HALF_ZONE - car.s,
+                HALF_ZONE - car.s,
+                car.v,
+            );
+            contact.gap_m = contact.gap_m.min(e.gap(&o));
+            contact.ttc_s = match (contact.ttc_s, ttc) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            };
+            contact.collision |= e.overlaps(&o);
+        }
+        contact
     }
 
     fn observe(&mut self, ego: &Body) -> Scene {
-        let now = Sample { position_m: self.other_to_zone(), velocity_mps: self.other.v };
-        Scene::YieldStandoff { ego_to_conflict_m: -HALF_ZONE - ego.s, other: self.history.track(now) }
+        let observed = |b: &Body| Sample { position_m: -HALF_ZONE - b.s, velocity_mps: b.v };
+        let (now, follower_now) = (observed(&self.other), observed(&self.follower));
+        Scene::YieldStandoff {
+            ego_to_conflict_m: -HALF_ZONE - ego.s,
+            other: self.history.track(now),
+            follower: self.follower_history.track(follower_now),
+        }
     }
 
     fn revealed(&self) -> bool {
@@ -289,27 +455,34 @@ impl World for YieldWorld {
         if !ego_inside {
             return false;
         }
-        let o = self.other_to_zone();
-        let other_inside = o <= 0.0 && o > -2.0 * HALF_ZONE;
-        let other_due = o > 0.0 && self.other.v > 0.1 && o / self.other.v < ROW_MARGIN_S;
-        other_inside || other_due
+        [&self.other, &self.follower].iter().any(|car| {
+            let o = -HALF_ZONE - car.s;
+            let inside = o <= 0.0 && o > -2.0 * HALF_ZONE;
+            let due = o > 0.0 && car.v > 0.1 && o / car.v < ROW_MARGIN_S;
+            inside || due
+        })
     }
 
     fn plan(&self, ego: &Body) -> Vec<PlanPoint> {
-        vec![PlanPoint { x: 0.0, y: ego.s, v: ego.v }, PlanPoint { x: self.other.s, y: 0.0, v: self.other.v }]
+        vec![
+            PlanPoint { x: 0.0, y: ego.s, v: ego.v },
+            PlanPoint { x: self.other.s, y: 0.0, v: self.other.v },
+            PlanPoint { x: self.follower.s, y: 0.0, v: self.follower.v },
+        ]
     }
 }
 
 // --- Baseline rules for this scenario (read only the public observation) ---
 
 /// Conflict-zone depth: a crossing car has fully cleared below minus this.
-const CONFLICT_ZONE_M: f64 = 6.7;
+const CONFLICT_ZONE_M: f64 = 2.0 * HALF_ZONE;
 /// Where the expert waits: this far before the conflict zone.
 const WAIT_GAP_M: f64 = 3.0;
 
-/// Whether a car track has been at rest for the last half second.
-fn at_rest(t: &Track) -> bool {
-    t.now.velocity_mps <= 0.1 && t.past[t.past.len() - 1].velocity_mps <= 0.1
+/// Whether a car track is at rest now after slowing down: a stop, the one
+/// signal a bluff never gives.
+fn stopped(t: &Track) -> bool {
+    t.now.velocity_mps <= 0.05 && t.now.position_m > 0.0
 }
 
 /// Whether a crossing car has left the conflict zone behind.
@@ -317,18 +490,71 @@ fn crossed(t: &Track) -> bool {
     t.now.position_m < -CONFLICT_ZONE_M - 0.5
 }
 
-/// The expert: go once the other car has stopped or crossed; until then keep
-/// a stop before the zone possible and let it go first.
-pub(crate) fn expert(v: f64, _v_max: f64, d: f64, other: &Track) -> Action {
-    if d < 0.5 || crossed(other) || (at_rest(other) && other.now.position_m > 0.0) {
+/// Whether the car started braking while the ego watched: steady speed at
+/// the start of the window, braking at its end. A car that began to slow
+/// only once the ego was there is yielding to it; one that was slowing all
+/// along may be bluffing.
+fn began_braking(t: &Track) -> bool {
+    let steady = (t.past[1].velocity_mps - t.past[0].velocity_mps).abs() < 0.05;
+    steady && t.recent_accel() < -0.4 && t.now.position_m > 0.0
+}
+
+/// Whether a car short of its line is stopping: at rest, or crawling
+/// slower than a walking pace and still braking (a bluff rolls on faster).
+fn stopping(t: &Track) -> bool {
+    stopped(t) || (t.now.position_m > 0.0 && t.now.velocity_mps < 1.5 && t.recent_accel() < -0.3)
+}
+
+/// Whether a car is slowing for the ego or waiting at its line.
+fn yielding(t: &Track) -> bool {
+    t.now.position_m > 0.0 && (t.recent_accel() < -0.2 || t.now.velocity_mps <= 0.05)
+}
+
+/// Whether the ego, going now at full throttle, clears the zone at least a
+/// second before `car` can reach it at its current speed.
+fn passes_before(v: f64, v_max: f64, d: f64, car: &Track) -> bool {
+    if crossed(car) {
+        return true;
+    }
+    let (p, vc) = (car.now.position_m, car.now.velocity_mps);
+    if p <= 0.0 {
+        return false;
+    }
+    let ego_clear = travel_time(d.max(0.0) + CONFLICT_ZONE_M, v, v_max, EGO_MAX_ACCEL);
+    let car_due = if vc > 0.3 { p / vc } else { f64::INFINITY };
+    car_due > ego_clear + 1.0
+}
+
+/// Whether the ego, going now at full throttle, reaches the zone at least
+/// 0.3 s after `car` has left it at its current speed.
+fn arrives_after(v: f64, v_max: f64, d: f64, car: &Track) -> bool {
+    let (p, vc) = (car.now.position_m, car.now.velocity_mps);
+    if crossed(car) {
+        return true;
+    }
+    if vc < 1.0 {
+        return false;
+    }
+    travel_time(d.max(0.0), v, v_max, EGO_MAX_ACCEL) > (p + CONFLICT_ZONE_M) / vc + 0.3
+}
+
+/// The expert: go once the first car has stopped at its line or began to
+/// brake for the ego (and keep going while it stays slow), or once both
+/// cars are through or far enough; until then keep a stop before the zone
+/// possible and let them pass.
+pub(crate) fn expert(v: f64, v_max: f64, d: f64, other: &Track, follower: &Track, last: Option<Action>) -> Action {
+    let going = last.is_some_and(|a| a.maneuver == Maneuver::Proceed && a.acceleration >= 1.0);
+    let clear = passes_before(v, v_max, d, other) && passes_before(v, v_max, d, follower);
+    let behind = arrives_after(v, v_max, d, other) && arrives_after(v, v_max, d, follower);
+    if d < 0.5 || clear || behind || stopping(other) || began_braking(other) || (going && yielding(other)) {
         go()
     } else {
         hedge(v, d - WAIT_GAP_M)
     }
 }
 
-/// The cue follower: go as soon as the other car brakes.
-pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, other: &Track) -> Action {
-    let braking = other.recent_accel() < -0.3 || other.now.velocity_mps <= 0.1;
-    if d < 0.5 || crossed(other) || braking { go() } else { hedge(v, d - WAIT_GAP_M) }
+/// The cue follower: go as soon as the first car brakes.
+pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, other: &Track, follower: &Track) -> Action {
+    let clear = passes_before(v, v_max, d, other) && passes_before(v, v_max, d, follower);
+    if d < 0.5 || clear || yielding(other) { go() } else { hedge(v, d - WAIT_GAP_M) }
 }
