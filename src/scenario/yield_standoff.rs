@@ -353,7 +353,8 @@ impl YieldWorld {
     fn bluffer_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
         let t3 = &self.params.tier3;
         let a = self.approach(ego);
-        let commits = a.to_conflict > 0.0 && ego.v > 1.0 && a.eta(self.params.episode.speed_limit_mps) < t3.commit_horizon_s;
+        let commits =
+            a.to_conflict > 0.0 && ego.v > 1.0 && a.eta(self.params.episode.speed_limit_mps) < t3.commit_horizon_s;
         match self.phase {
             Phase::Braking | Phase::Floor { .. } if commits => {
                 self.phase = Phase::Going { accel: t3.bluff_accel_mps2 };

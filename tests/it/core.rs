@@ -65,8 +65,8 @@ fn golden_vectors_pin_trajectories() {
         Action::new(Maneuver::Yield, 0.3),
         Action::new(Maneuver::NudgeForward, 0.5),
     ];
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.9 ego (0.0000, 21.0809) v 12.0000 other (-8.0204, 0.0000) v 2.3872 reward 0.991416 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 40 t 20.0 ego (0.0000, -21.3448) v 0.0000 other (87.8439, 0.0000) v 11.7773 reward -0.210055 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.5829, 0.0000) v 1.9500 reward 0.991777 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 22 t 11.0 ego (0.0000, -18.8029) v 0.0000 other (16.2129, 0.0000) v 4.0000 reward -0.181158 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 2.7515) v 2.5000 reward -0.152324 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (12.5254, 0.0000) v 12.7000 reward -1.000000 dc 0.000");
@@ -146,7 +146,8 @@ fn anti_gaming_check_catches_a_harmless_other_car() {
     // A committed car that arrives 5 s late never meets "always proceed".
     let mut set = ScenarioSet::default();
     let text = include_str!("../../scenarios/yield_standoff.toml")
-        .replace("arrival_offset_s = [-0.3, 0.3]", "arrival_offset_s = [4.5, 5.0]");
+        .replace("arrival_offset_s = [-0.3, 0.1]", "arrival_offset_s = [4.5, 5.0]");
+    assert!(text.contains("[4.5, 5.0]"), "the planted value did not apply");
     set.replace(ScenarioConfig::from_toml("harmless.toml", &text).unwrap());
     let cells = grid(&set, &[ScenarioKind::YieldStandoff], &[Tier::T1], 40);
     assert!(!validate::check_anti_gaming(&cells).pass);
