@@ -277,26 +277,32 @@ fn other_road_users_never_see_the_label() {
     }
 }
 
-/// The two blind plays the scenario design names, built by hand, lose on
-/// the pedestrian scenario: racing (full throttle) and outwaiting (creep to
-/// the crosswalk, hold, then go).
+/// The blind plays the scenario design names, built by hand, lose on the
+/// pedestrian and intersection scenarios: racing (full throttle),
+/// outwaiting (creep to the conflict, hold, then go) and, at the
+/// intersection, arriving 2 s or 4 s after a full-throttle ego would (just
+/// behind a committed pair, or after a yielding pair has pulled away).
 #[test]
-fn racing_and_outwaiting_lose_on_the_pedestrian_scenario() {
+fn racing_and_outwaiting_lose() {
     use negotiator::adversary::{BlindPlan, evaluate};
     let set = ScenarioSet::default();
     let seeds: Vec<u64> = (0..120).collect();
     let race = BlindPlan::Schedule(vec![2]);
     let outwait = BlindPlan::CreepHoldGo { approach: 4, distance_m: 2.0, hold: 10, hold_turns: 6, go: 2 };
-    for tier in Tier::ALL {
-        let config = set.get(ScenarioKind::PedestrianFeint);
-        let cells = grid(&set, &[ScenarioKind::PedestrianFeint], &[tier], 120);
-        let expert = cells.iter().find(|c| c.cell.policy == PolicyKind::Expert).unwrap().success.estimate;
-        for plan in [&race, &outwait] {
-            let blind = evaluate(config, tier, plan, &seeds).success;
-            assert!(
-                expert - blind >= validate::ANTI_GAMING_MARGIN,
-                "t{tier}: {plan} wins {blind:.3} vs expert {expert:.3}"
-            );
+    let behind = BlindPlan::TimedArrival { arrive_s: 2.0, relative: true };
+    let late = BlindPlan::TimedArrival { arrive_s: 4.0, relative: true };
+    for kind in [ScenarioKind::PedestrianFeint, ScenarioKind::YieldStandoff] {
+        for tier in Tier::ALL {
+            let config = set.get(kind);
+            let cells = grid(&set, &[kind], &[tier], 120);
+            let expert = cells.iter().find(|c| c.cell.policy == PolicyKind::Expert).unwrap().success.estimate;
+            for plan in [&race, &outwait, &behind, &late] {
+                let blind = evaluate(config, tier, plan, &seeds).success;
+                assert!(
+                    expert - blind >= validate::ANTI_GAMING_MARGIN,
+                    "{kind}/t{tier}: {plan} wins {blind:.3} vs expert {expert:.3}"
+                );
+            }
         }
     }
 }
@@ -317,6 +323,27 @@ fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
         .replace("turn_budget = 18", "turn_budget = 40")
         .replace("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative");
     assert!(text.contains("[19.0, 20.0]"), "the planted change did not apply");
+    let mut set = ScenarioSet::default();
+    set.replace(ScenarioConfig::from_toml("patient.toml", &text).unwrap());
+    let planted = check(&set);
+    assert!(!planted.pass, "{}", planted.figure);
+}
+
+/// The same for the intersection: a yielder that never takes its turn, with
+/// a budget long enough to wait, can be outwaited.
+#[test]
+fn blind_search_catches_a_yielder_who_never_gives_up() {
+    let check = |set: &ScenarioSet| {
+        let cells = grid(set, &[ScenarioKind::YieldStandoff], &[Tier::T1], 100);
+        let blind = validate::search_blind(set, &[ScenarioKind::YieldStandoff], &[Tier::T1], 0..100, 20_000);
+        validate::check_blind_play_loses(&cells, &blind)
+    };
+    let honest = check(&ScenarioSet::default());
+    assert!(honest.pass, "{}", honest.figure);
+    let text = include_str!("../../scenarios/yield_standoff.toml")
+        .replace("turn_budget = 22", "turn_budget = 40")
+        .replace("patience_s = [0.2, 0.5]", "patience_s = [25.0, 30.0]");
+    assert!(text.contains("[25.0, 30.0]"), "the planted change did not apply");
     let mut set = ScenarioSet::default();
     set.replace(ScenarioConfig::from_toml("patient.toml", &text).unwrap());
     let planted = check(&set);
