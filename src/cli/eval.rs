@@ -13,12 +13,13 @@ use super::{RefusedError, exit, parse_list, usage};
 use crate::belief::Probe;
 use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias, sanitize_name};
 use crate::eval::events::{Reporter, StopReason};
+use crate::eval::prices::Prices;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::eval::{EvalError, EvalOptions};
 use crate::hash::fnv1a64_hex;
 use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
-use crate::rundir::{HistoryWindow, RunConfig, Selection, Shard};
+use crate::rundir::{HistoryWindow, Pricing, RunConfig, Selection, Shard};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use reqwest::header::{HeaderMap, HeaderName, HeaderValue};
 use serde_json::{Map, Value};
@@ -48,6 +49,10 @@ pub struct EvalArgs {
     /// Endpoints file to use instead of the built-in configs/endpoints.toml.
     #[arg(long)]
     pub endpoints_file: Option<PathBuf>,
+    /// Prices file laid over the built-in configs/prices.toml: its models
+    /// replace or add prices (USD per million tokens).
+    #[arg(long)]
+    pub prices_file: Option<PathBuf>,
     /// Scenarios: all, or a comma-separated list.
     #[arg(long, default_value = "all")]
     pub scenario: String,
@@ -126,6 +131,11 @@ pub struct EvalArgs {
     /// tokens (episodes in flight finish).
     #[arg(long)]
     pub max_total_tokens: Option<u64>,
+    /// Stop starting episodes once this invocation's estimated spend
+    /// reaches this many US dollars (episodes in flight finish). Needs a
+    /// known price for the model.
+    #[arg(long, value_name = "USD")]
+    pub max_cost: Option<f64>,
     /// Score turns cut off by the completion-token limit instead of
     /// stopping the run when more than 2% of the first 50 episodes' turns are.
     #[arg(long)]
@@ -157,6 +167,15 @@ pub struct EvalArgs {
     /// No progress output (the same as --events none).
     #[arg(long, short = 'q', conflicts_with = "events")]
     pub quiet: bool,
+    /// Print the plan (episodes, expected turns and tokens from the
+    /// expert's play of the same seeds, estimated cost and wall time) and
+    /// the exact first request, key redacted; send nothing, write nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Seconds per turn assumed by --dry-run's wall-time estimate (default:
+    /// 1 s, plus the profile's expected reasoning at 100 tokens/s).
+    #[arg(long, value_name = "SECONDS", requires = "dry_run")]
+    pub assume_latency: Option<f64>,
 }
 
 /// `--events`: which reporter shows the run on stderr.
@@ -198,7 +217,11 @@ impl EvalArgs {
         let target = self.target()?;
         let api_key_var =
             self.api_key_var.clone().or_else(|| target.endpoint.as_ref().and_then(|e| e.api_key_env.clone()));
-        let api_key = api_key(api_key_var.as_deref())?;
+        // A dry run sends nothing: a key not set yet is noted, not refused.
+        let api_key = match api_key(api_key_var.as_deref()) {
+            Err(_) if self.dry_run => None,
+            key => key?,
+        };
         let headers = self.headers(target.endpoint.as_ref())?;
         let built = self.request_params(&target)?;
         let history: HistoryWindow = self.history.parse().map_err(|e| usage(format!("--history: {e}")))?;
@@ -207,6 +230,8 @@ impl EvalArgs {
             return Err(usage("-c: must be at least 1"));
         }
         let scenario_set = ScenarioSet::with_overrides(&self.scenario_files)?;
+        let pricing = self.prices()?.lookup(&target.base_url, &target.model);
+        let max_cost_usd = self.max_cost_checked(pricing.as_ref(), &target)?;
         let config = RunConfig {
             model: target.model,
             request_params: built.params,
@@ -243,6 +268,8 @@ impl EvalArgs {
             concurrency: self.concurrency,
             run_dir: self.output.join(run_name),
             max_total_tokens: self.max_total_tokens,
+            max_cost_usd,
+            pricing,
             allow_truncation: self.allow_truncation,
             trajectories: !self.no_trajectories,
         })
@@ -375,6 +402,33 @@ impl EvalArgs {
             .map_err(|e| usage(e.to_string()))
     }
 
+    /// The built-in prices, with `--prices-file` laid over them.
+    fn prices(&self) -> anyhow::Result<Prices> {
+        let mut prices = Prices::builtin();
+        if let Some(p) = &self.prices_file {
+            let text = std::fs::read_to_string(p).map_err(|e| usage(format!("--prices-file {}: {e}", p.display())))?;
+            prices.overlay(&p.display().to_string(), &text).map_err(|e| usage(format!("--prices-file {e}")))?;
+        }
+        Ok(prices)
+    }
+
+    /// `--max-cost`: a positive number of dollars, and a price to count
+    /// them with (a budget on an unknown cost would never stop anything).
+    fn max_cost_checked(&self, pricing: Option<&Pricing>, target: &Target) -> anyhow::Result<Option<f64>> {
+        let Some(usd) = self.max_cost else { return Ok(None) };
+        if !(usd.is_finite() && usd > 0.0) {
+            return Err(usage(format!("--max-cost: expected a positive number of US dollars, got {usd}")));
+        }
+        if pricing.is_none() {
+            return Err(usage(format!(
+                "--max-cost: no price for model '{}' at {} in the prices file, so the spend cannot be counted; add one with --prices-file",
+                target.model,
+                crate::redact::url_without_userinfo(&target.base_url)
+            )));
+        }
+        Ok(Some(usd))
+    }
+
     /// Which episodes to play.
     fn selection(&self) -> anyhow::Result<Selection> {
         let shard: Shard = match self.shard.as_deref().map(str::trim) {
@@ -449,6 +503,9 @@ impl EvalArgs {
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let options = self.options()?;
+        if self.dry_run {
+            return self.dry_run(&options);
+        }
         let mut reporter = self.reporter()?;
         if !self.quiet {
             for line in options.profile_notes() {
@@ -485,6 +542,39 @@ impl EvalArgs {
             );
         }
         Ok(ExitCode::from(exit::FAILURE))
+    }
+}
+
+impl EvalArgs {
+    /// `--dry-run`: the plan and the first request, on stdout through the
+    /// redaction choke point. Reads the run directory (if any) to leave out
+    /// finished episodes; sends and writes nothing.
+    fn dry_run(&self, options: &EvalOptions) -> anyhow::Result<ExitCode> {
+        let latency = match self.assume_latency {
+            Some(s) if !(s.is_finite() && s > 0.0 && s < 1e6) => {
+                return Err(usage(format!("--assume-latency: expected a positive number of seconds, got {s}")));
+            }
+            s => s,
+        };
+        let mut finished = std::collections::HashSet::new();
+        let rollouts = options.run_dir.join(crate::rundir::ROLLOUTS);
+        if rollouts.exists() {
+            crate::rundir::lines::read_rollouts(&rollouts, |s, _| {
+                finished.insert(s.key());
+            })
+            .map_err(|e| anyhow::anyhow!("{}: {e}", rollouts.display()))?;
+        }
+        for line in options.profile_notes() {
+            crate::redact::eline!("{line}");
+        }
+        let plan = crate::eval::plan::plan(options, &finished, latency);
+        crate::redact::term::out(&crate::eval::plan::render(&plan, options));
+        if let Some(request) = crate::eval::plan::first_request(options, &finished) {
+            crate::redact::term::out(&format!(
+                "\nfirst request (exactly as it would be sent; secrets redacted):\n{request}"
+            ));
+        }
+        Ok(ExitCode::SUCCESS)
     }
 }
 

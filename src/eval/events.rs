@@ -18,6 +18,8 @@ use std::sync::Arc;
 pub enum StopReason {
     /// `--max-total-tokens` was reached; episodes in flight finished.
     TokenBudget,
+    /// `--max-cost` was reached; episodes in flight finished.
+    CostBudget,
     /// `streak` episodes in a row ran out of retries: the endpoint looks down.
     Outage { streak: u32 },
     /// Too many turns were cut off by the completion-token limit (see
@@ -35,7 +37,7 @@ pub enum StopReason {
 impl StopReason {
     fn rank(self) -> u8 {
         match self {
-            StopReason::TokenBudget => 0,
+            StopReason::TokenBudget | StopReason::CostBudget => 0,
             StopReason::Outage { .. } => 1,
             StopReason::Truncation { .. } => 2,
             StopReason::Interrupted => 3,
@@ -54,6 +56,7 @@ impl std::fmt::Display for StopReason {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             StopReason::TokenBudget => f.write_str("stopped by --max-total-tokens, or infrastructure errors"),
+            StopReason::CostBudget => f.write_str("stopped by --max-cost, or infrastructure errors"),
             StopReason::Outage { streak } => {
                 write!(f, "the endpoint looks down: stopped after {streak} consecutive infrastructure errors")
             }
@@ -115,6 +118,9 @@ pub enum Event {
         turns: u64,
         retries: u64,
         tokens: u64,
+        /// Estimated USD of this invocation's episodes; `null` when the
+        /// price is unknown.
+        cost_usd: Option<f64>,
         wall_s: f64,
         /// Episodes of the selection still missing.
         missing: usize,

@@ -15,6 +15,8 @@
 
 pub mod config;
 pub mod events;
+pub mod plan;
+pub mod prices;
 pub mod progress;
 pub mod prompt;
 pub mod shard_auto;
@@ -63,6 +65,10 @@ pub struct EvalOptions {
     pub concurrency: usize,
     pub run_dir: PathBuf,
     pub max_total_tokens: Option<u64>,
+    /// `--max-cost`: a soft budget in USD, like `max_total_tokens`.
+    pub max_cost_usd: Option<f64>,
+    /// The prices this model is billed at; `None` when unknown.
+    pub pricing: Option<rundir::Pricing>,
     /// Score cut-off turns instead of stopping the run (see [`truncation`]).
     pub allow_truncation: bool,
     /// Keep plan-view trajectories in each line (for plots).
@@ -107,6 +113,7 @@ impl EvalOptions {
             concurrency: self.concurrency,
             max_retries: self.client.retry.max_retries,
             max_total_tokens: self.max_total_tokens,
+            max_cost_usd: self.max_cost_usd,
             request_timeout_s: self.client.request_timeout.as_secs_f64(),
         }
     }
@@ -234,6 +241,7 @@ pub fn git_revision() -> String {
 /// (the episodes) and [`finalize`] (totals, status, summary).
 pub async fn run(options: EvalOptions, reporter: &mut dyn Reporter) -> Result<RunOutcome, EvalError> {
     let counters = Arc::new(Counters::default());
+    counters.priced.store(options.pricing.is_some(), Relaxed);
     reporter.attach(counters.clone());
     let mut run = prepare(options, counters, reporter)?;
     let drove = match preflight(&run).await {
@@ -411,6 +419,7 @@ fn running_info(
         retries: 0,
         tokens: 0,
         turns: 0,
+        cost_usd: options.pricing.as_ref().map(|_| 0.0),
         wall_s: 0.0,
     };
     RunInfo {
@@ -425,6 +434,7 @@ fn running_info(
         invocations: previous.map_or(0, |p| p.invocations) + 1,
         last_invocation: invocation,
         totals: Totals { episodes: finished as u64, ..previous.map(|p| p.totals.clone()).unwrap_or_default() },
+        pricing: options.pricing.clone(),
     }
 }
 
@@ -443,6 +453,8 @@ struct Driver<'a> {
     reporter: &'a mut dyn Reporter,
     drove: Drove,
     tokens_spent: u64,
+    /// USD spent by this invocation's finished episodes.
+    cost_spent: f64,
     /// Infrastructure errors since the last finished episode.
     infra_streak: u32,
     /// None with --allow-truncation.
@@ -473,8 +485,12 @@ impl Driver<'_> {
             counters.success.fetch_add(1, Relaxed);
         }
         self.tokens_spent += scalars.tokens;
+        self.cost_spent += scalars.cost_usd.unwrap_or(0.0);
         self.run.invocation.episodes += 1;
         self.run.invocation.tokens += scalars.tokens;
+        if let Some(c) = self.run.invocation.cost_usd.as_mut() {
+            *c += scalars.cost_usd.unwrap_or(0.0);
+        }
         self.run.finished.insert(key, scalars);
         self.reporter.event(&Event::EpisodeFinished {
             key,
@@ -486,6 +502,9 @@ impl Driver<'_> {
         });
         if self.run.ctx.options.max_total_tokens.is_some_and(|b| self.tokens_spent >= b) {
             self.stop(StopReason::TokenBudget);
+        }
+        if self.run.ctx.options.max_cost_usd.is_some_and(|b| self.cost_spent >= b) {
+            self.stop(StopReason::CostBudget);
         }
         if let Some(guard) = self.truncation.as_mut()
             && let truncation::Verdict::Stop { truncated, turns } =
@@ -556,6 +575,7 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
         reporter,
         drove: Drove { stop: None, fatal: None, failure: None },
         tokens_spent: 0,
+        cost_spent: 0.0,
         infra_streak: 0,
         truncation: None,
         outage_streak: OUTAGE_STREAK.min(concurrency as u32).max(3),
@@ -668,7 +688,8 @@ fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<
     invocation.wall_s = started.elapsed().as_secs_f64();
     invocation.ended_at = Some(now_rfc3339());
 
-    let summary = summarize_selection(&ctx.options.config.model, &selection, &finished);
+    let mut summary = summarize_selection(&ctx.options.config.model, &selection, &finished);
+    summary.prices_as_of = ctx.options.pricing.as_ref().map(|p| p.as_of.clone());
     let missing = summary.missing;
     invocation.status = match drove.stop {
         Some(StopReason::Refused) => RunStatus::Refused,
@@ -685,6 +706,7 @@ fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<
         missing: missing as u64,
         retries: prev_totals.retries + invocation.retries,
         tokens: finished.values().map(|s| s.tokens).sum(),
+        cost_usd: finished.values().map(|s| s.cost_usd).sum(),
         wall_s: prev_totals.wall_s + invocation.wall_s,
     };
     info.ended_at = invocation.ended_at.clone();
@@ -697,6 +719,7 @@ fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter) -> Result<
         turns: inv.turns,
         retries: inv.retries,
         tokens: inv.tokens,
+        cost_usd: inv.cost_usd,
         wall_s: inv.wall_s,
         missing,
     };
@@ -840,6 +863,8 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     let mut history = History::default();
     let mut turns: Vec<TurnRecord> = Vec::new();
     let retries = AtomicU32::new(0);
+    // Priced per turn, so turns without usage are priced at their estimate.
+    let mut cost: Option<f64> = opts.pricing.as_ref().map(|_| 0.0);
     while !episode.is_done() {
         let turn = episode.observation().turn;
         let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
@@ -872,6 +897,12 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         drop(messages);
         let parsed = parse_reply(&completion, ctx.options.client.max_reply_bytes);
         let (tokens, estimated) = turn_tokens(&completion, sent_bytes);
+        if let (Some(total), Some(pricing)) = (cost.as_mut(), opts.pricing.as_ref()) {
+            let (prompt, cached, output) = billed_tokens(&completion, sent_bytes);
+            let usd = pricing.cost(prompt, cached, output);
+            *total += usd;
+            ctx.counters.add_cost(usd);
+        }
         ctx.counters.tokens.fetch_add(tokens, Relaxed);
         ctx.counters.turns.fetch_add(1, Relaxed);
         let ideal_belief = episode.ideal_belief();
@@ -914,7 +945,7 @@ async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     for (t, d) in turns.iter_mut().zip(&graded.decisions) {
         t.after_resolution = d.after_resolution;
     }
-    let record = rollout_record(ctx, key, graded, turns, retries.load(Relaxed), started);
+    let record = rollout_record(ctx, key, graded, turns, (retries.load(Relaxed), cost), started);
     let line = serde_json::to_string(&record).expect("a rollout record serialises");
     Ok((EpisodeScalars::from(&record), line))
 }
@@ -929,6 +960,18 @@ fn turn_tokens(completion: &Completion, sent_bytes: usize) -> (u64, bool) {
     }
 }
 
+/// The tokens a turn is billed for: (prompt, of which cached, output with
+/// hidden reasoning), as reported, or (no usage reported) estimated like
+/// [`turn_tokens`] at ~4 bytes per token, none of them cached.
+fn billed_tokens(completion: &Completion, sent_bytes: usize) -> (u64, u64, u64) {
+    match completion.usage {
+        Some(u) if u.prompt_tokens.is_some() || u.completion_tokens.is_some() => {
+            (u.prompt_tokens.unwrap_or(0), u.cached(), u.billed_output())
+        }
+        _ => ((sent_bytes / 4) as u64, 0, (completion.content.as_ref().map_or(0, String::len) / 4) as u64),
+    }
+}
+
 /// The line of a finished episode: its grades and its transcript, with the
 /// per-episode sums of the turns.
 fn rollout_record(
@@ -936,7 +979,7 @@ fn rollout_record(
     key: EpisodeKey,
     graded: EpisodeRecord,
     turns: Vec<TurnRecord>,
-    retries: u32,
+    (retries, cost_usd): (u32, Option<f64>),
     started: Instant,
 ) -> RolloutRecord {
     let belief = (ctx.options.config.probe == Probe::Belief).then(|| {
@@ -980,6 +1023,7 @@ fn rollout_record(
         truncated_turns: turns.iter().filter(|t| t.truncated).count() as u32,
         reasoning_tokens: turns.iter().map(|t| t.reasoning_tokens).sum(),
         cached_tokens: turns.iter().map(|t| t.cached_tokens).sum(),
+        cost_usd,
         latency_ms: turns.iter().map(|t| t.latency_ms).sum(),
         retries,
         wall_ms: started.elapsed().as_millis() as u64,

@@ -8,7 +8,7 @@ use super::events::{Event, Reporter};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::Write;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -22,6 +22,10 @@ pub struct Counters {
     pub retries: AtomicU64,
     pub tokens: AtomicU64,
     pub turns: AtomicU64,
+    /// Estimated spend in nano-dollars (an integer, so tasks add to it
+    /// without a lock), and whether the model has a price at all.
+    pub cost_nanousd: AtomicU64,
+    pub priced: AtomicBool,
     /// The latest failed request's cause and when it happened, for the
     /// progress line (an outage shows why while it happens).
     pub last_error: std::sync::Mutex<Option<(Instant, String)>>,
@@ -31,6 +35,15 @@ impl Counters {
     pub fn record_error(&self, message: &str) {
         let mut last = self.last_error.lock().unwrap_or_else(|e| e.into_inner());
         *last = Some((Instant::now(), message.to_string()));
+    }
+
+    pub fn add_cost(&self, usd: f64) {
+        self.cost_nanousd.fetch_add((usd * 1e9).round() as u64, Relaxed);
+    }
+
+    /// The spend so far, `None` when the price is unknown.
+    pub fn cost(&self) -> Option<f64> {
+        self.priced.load(Relaxed).then(|| self.cost_nanousd.load(Relaxed) as f64 / 1e9)
     }
 
     /// The latest failure, if it happened within the last 30 s.
@@ -53,10 +66,11 @@ fn status(c: &Counters) -> String {
     let success = c.success.load(Relaxed);
     let rate = if done == 0 { "-".to_string() } else { format!("{:.2}", success as f64 / done as f64) };
     let mut line = format!(
-        "success {rate} | infra errors {} | retries {} | tokens {}",
+        "success {rate} | infra errors {} | retries {} | tokens {} | cost {}",
         c.infra_errors.load(Relaxed),
         c.retries.load(Relaxed),
-        human(c.tokens.load(Relaxed))
+        human(c.tokens.load(Relaxed)),
+        crate::eval::prices::usd_or_unknown(c.cost())
     );
     if let Some(e) = c.recent_error() {
         line.push_str(&format!(" | last error: {}", crate::llm::client::clip(&e, 100)));
@@ -282,6 +296,7 @@ mod tests {
                 turns: 40,
                 retries: 2,
                 tokens: 5000,
+                cost_usd: Some(0.25),
                 wall_s: 1.5,
                 missing: 3,
             },
@@ -293,14 +308,27 @@ mod tests {
         {"event":"episode_finished","scenario":"contested_merge","tier":2,"seed":7,"rollout":1,"outcome":"collision","reward":-1.0,"turns":12,"tokens":900,"retries":2}
         {"event":"infra_error","scenario":"contested_merge","tier":2,"seed":7,"rollout":1,"turn":3,"error":"HTTP 503"}
         {"event":"stopped","reason":"outage","streak":8}
-        {"event":"finished","status":"incomplete","stop":{"reason":"token_budget"},"episodes":4,"infra_errors":1,"turns":40,"retries":2,"tokens":5000,"wall_s":1.5,"missing":3}
+        {"event":"finished","status":"incomplete","stop":{"reason":"token_budget"},"episodes":4,"infra_errors":1,"turns":40,"retries":2,"tokens":5000,"cost_usd":0.25,"wall_s":1.5,"missing":3}
         "#);
+    }
+
+    #[test]
+    fn the_progress_line_shows_the_spend_or_that_it_is_unknown() {
+        let c = Counters::default();
+        c.tokens.store(12_345, Relaxed);
+        assert!(status(&c).ends_with("tokens 12.3k | cost unknown"), "{}", status(&c));
+        c.priced.store(true, Relaxed);
+        c.add_cost(0.0125);
+        c.add_cost(0.0125);
+        assert!(status(&c).ends_with("tokens 12.3k | cost $0.0250"), "{}", status(&c));
     }
 
     #[test]
     fn stop_reasons_keep_the_most_serious() {
         let outage = StopReason::Outage { streak: 8 };
         assert!(StopReason::TokenBudget.outranks(None));
+        assert!(!StopReason::CostBudget.outranks(Some(StopReason::TokenBudget)), "the first budget reached stays");
+        assert!(outage.outranks(Some(StopReason::CostBudget)));
         assert!(outage.outranks(Some(StopReason::TokenBudget)));
         assert!(!StopReason::TokenBudget.outranks(Some(outage)));
         assert!(!outage.outranks(Some(outage)));

@@ -250,6 +250,7 @@ mod tests {
             truncated_turns: 0,
             reasoning_tokens: 0,
             cached_tokens: 0,
+            cost_usd: Some(0.001),
             latency_ms: 5,
             retries: 0,
         };
@@ -377,9 +378,11 @@ mod tests {
                 retries: 0,
                 tokens: 0,
                 turns: 0,
+                cost_usd: None,
                 wall_s: 0.0,
             },
             totals: Totals::default(),
+            pricing: None,
         };
         write_run_info(&dir, &info).unwrap();
         let read = read_run_info(&dir).unwrap().unwrap();

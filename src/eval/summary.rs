@@ -73,6 +73,13 @@ pub struct Summary {
     pub completion_tokens: u64,
     #[serde(default)]
     pub reasoning_tokens: u64,
+    /// Estimated cost of the scored episodes in USD; `null` when any of
+    /// them has no known price.
+    #[serde(default)]
+    pub cost_usd: Option<f64>,
+    /// The date of the prices used (`null`: unknown).
+    #[serde(default)]
+    pub prices_as_of: Option<String>,
 }
 
 /// `cells`: for each (scenario, tier) of the selection, the finished
@@ -125,6 +132,8 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
         cached_tokens: sum(|e| e.cached_tokens),
         completion_tokens: sum(|e| e.completion_tokens),
         reasoning_tokens: sum(|e| e.reasoning_tokens),
+        cost_usd: cells.iter().flat_map(|c| c.2.iter()).map(|e| e.cost_usd).sum(),
+        prices_as_of: None,
         cells: out,
     }
 }
@@ -229,7 +238,7 @@ pub fn render(summary: &Summary) -> String {
         .unwrap_or_default();
     format!(
         "model: {}\n\n{}{belief}\nmean success over cells: {}; {} episodes scored, {} missing\n\
-         tokens: {} prompt ({} cached, {}), {} completion ({} reasoning)\n",
+         tokens: {} prompt ({} cached, {}), {} completion ({} reasoning)\n{}\n",
         summary.model,
         MarkdownExporter { heading_level: 2 }.render(&table(summary)),
         f2(summary.mean_success),
@@ -243,8 +252,20 @@ pub fn render(summary: &Summary) -> String {
             format!("{:.0}%", 100.0 * summary.cached_tokens as f64 / summary.prompt_tokens as f64)
         },
         summary.completion_tokens,
-        summary.reasoning_tokens
+        summary.reasoning_tokens,
+        cost_line(summary)
     )
+}
+
+/// The estimated spend, dated, or why it is unknown.
+fn cost_line(summary: &Summary) -> String {
+    match (summary.cost_usd, &summary.prices_as_of) {
+        (Some(c), Some(date)) => {
+            format!("estimated cost: {} (an estimate, at the prices of {date} in the prices file)", crate::eval::prices::usd(c))
+        }
+        _ => "estimated cost: unknown (no price for this model and endpoint in the prices file: add one with --prices-file)"
+            .to_string(),
+    }
 }
 
 #[cfg(test)]
@@ -276,6 +297,7 @@ mod tests {
             truncated_turns: 2,
             reasoning_tokens: 60,
             cached_tokens: 450,
+            cost_usd: Some(0.01),
             latency_ms: 10,
             retries: 0,
         }
@@ -302,6 +324,17 @@ mod tests {
         assert!((c.mean_reward - 0.2).abs() < 1e-12);
         let table = render(&s);
         assert!(table.contains("tokens: 3600 prompt (1800 cached, 50%), 400 completion (240 reasoning)"), "{table}");
+        assert!(table.contains("estimated cost: unknown (no price"), "not dated, so not shown as a price: {table}");
+        let mut priced = s.clone();
+        priced.prices_as_of = Some("2025-11-20".into());
+        assert!((priced.cost_usd.unwrap() - 0.04).abs() < 1e-12);
+        assert!(render(&priced).contains("estimated cost: $0.0400 (an estimate, at the prices of 2025-11-20"));
+        // One episode without a known cost makes the whole sum unknown.
+        let mut unpriced = ep(9, Outcome::Success, 0);
+        unpriced.cost_usd = None;
+        let partial =
+            summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, vec![ep(0, Outcome::Success, 0), unpriced], 0)]);
+        assert_eq!(partial.cost_usd, None);
         assert!(table.contains("| pedestrian_feint | 2 | 4x1 | 0.50 ["), "{table}");
         // Deterministic: the same episodes give the same summary.
         let again = summarize(

@@ -218,6 +218,12 @@ enum AttemptError {
     Fatal(LlmError),
 }
 
+/// The exact bytes POSTed for a request (`eval --dry-run` prints and
+/// measures these too).
+pub fn request_body(request: &ChatRequest<'_>) -> Vec<u8> {
+    serde_json::to_vec(request).expect("a chat request always serialises")
+}
+
 pub struct Client {
     http: reqwest::Client,
     url: String,
@@ -280,7 +286,7 @@ impl Client {
         fail_fast_on_connect: bool,
     ) -> Result<Completion, LlmError> {
         // Serialise once; every attempt sends the same bytes.
-        let body = serde_json::to_vec(request).expect("a chat request always serialises");
+        let body = request_body(request);
         let mut last = String::new();
         let attempts_allowed = self.config.retry.max_retries.saturating_add(1);
         for attempt in 0..attempts_allowed {

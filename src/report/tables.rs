@@ -503,6 +503,9 @@ pub struct CostRow {
     pub parse_error_turns: u64,
     pub parse_error_rate: f64,
     pub episodes_with_parse_errors: usize,
+    /// Turns cut off by the completion-token limit (not parse errors).
+    pub truncated_turns: u64,
+    pub truncated_rate: f64,
     /// Errored: rollouts given up as infrastructure errors (errors.jsonl)
     /// and never finished.
     pub infra_errors: usize,
@@ -513,6 +516,11 @@ pub struct CostRow {
     pub tokens_per_episode: f64,
     pub prompt_tokens_per_episode: f64,
     pub completion_tokens_per_episode: f64,
+    /// Share of the prompt tokens served from the provider's cache.
+    pub cached_share: f64,
+    /// Estimated USD of the episodes, as eval priced them; `None` when any
+    /// episode has no known cost.
+    pub cost_usd: Option<f64>,
     pub latency_s_per_episode: f64,
     pub latency_s_per_episode_p95: f64,
     pub latency_ms_per_turn: f64,
@@ -525,6 +533,8 @@ pub(crate) fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
             let eps = &m.episodes;
             let turns: u64 = eps.iter().map(|e| u64::from(e.turns_taken)).sum();
             let bad: u64 = eps.iter().map(|e| u64::from(e.parse_error_turns)).sum();
+            let cut: u64 = eps.iter().map(|e| u64::from(e.truncated_turns)).sum();
+            let prompt: u64 = eps.iter().map(|e| e.prompt_tokens).sum();
             let per_ep = |f: &dyn Fn(&Episode) -> f64| mean(&eps.iter().map(f).collect::<Vec<_>>());
             let mut lat: Vec<f64> = eps.iter().map(|e| e.latency_ms as f64 / 1000.0).collect();
             lat.sort_unstable_by(f64::total_cmp);
@@ -537,12 +547,20 @@ pub(crate) fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
                 parse_error_turns: bad,
                 parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
                 episodes_with_parse_errors: eps.iter().filter(|e| e.parse_error_turns > 0).count(),
+                truncated_turns: cut,
+                truncated_rate: if turns == 0 { f64::NAN } else { cut as f64 / turns as f64 },
                 infra_errors: m.errored.len(),
                 missing: m.not_run.as_ref().map(Vec::len),
                 retries: eps.iter().map(|e| u64::from(e.retries)).sum(),
                 tokens_per_episode: per_ep(&|e| e.tokens as f64),
                 prompt_tokens_per_episode: per_ep(&|e| e.prompt_tokens as f64),
                 completion_tokens_per_episode: per_ep(&|e| e.completion_tokens as f64),
+                cached_share: if prompt == 0 {
+                    f64::NAN
+                } else {
+                    eps.iter().map(|e| e.cached_tokens).sum::<u64>() as f64 / prompt as f64
+                },
+                cost_usd: if eps.is_empty() { None } else { eps.iter().map(|e| e.cost_usd).sum() },
                 latency_s_per_episode: per_ep(&|e| e.latency_ms as f64 / 1000.0),
                 latency_s_per_episode_p95: quantile(&lat, 0.95),
                 latency_ms_per_turn: if turns == 0 { f64::NAN } else { latency_total as f64 / turns as f64 },
@@ -566,12 +584,19 @@ pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
             Column::data("parse_error_turns"),
             Column::data("parse_error_rate"),
             Column::new("episodes with parse errors", "episodes_with_parse_errors"),
+            Column::display("truncated turns"),
+            Column::data("truncated_turns"),
+            Column::data("truncated_rate"),
             Column::new("errored", "infra_errors"),
             Column::new("missing", "missing"),
             Column::new("retries", "retries"),
             Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
             Column::data("prompt_tokens_per_episode"),
             Column::new("completion tokens/ep", "completion_tokens_per_episode").style(Style::Whole),
+            Column::display("cached"),
+            Column::data("cached_share"),
+            Column::display("cost (USD)"),
+            Column::data("cost_usd"),
             Column::display("latency s/ep (p95)"),
             Column::data("latency_s_per_episode"),
             Column::data("latency_s_per_episode_p95"),
@@ -589,12 +614,22 @@ pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
             Cell::Int(r.parse_error_turns),
             Cell::Float(r.parse_error_rate),
             Cell::Int(r.episodes_with_parse_errors as u64),
+            Cell::WithParen(
+                Box::new(Cell::Int(r.truncated_turns)),
+                Box::new(Cell::Percent(100.0 * if r.turns == 0 { 0.0 } else { r.truncated_rate })),
+            ),
+            Cell::Int(r.truncated_turns),
+            Cell::Float(r.truncated_rate),
             Cell::Int(r.infra_errors as u64),
             r.missing.map_or(Cell::Unknown, |m| Cell::Int(m as u64)),
             Cell::Int(r.retries),
             Cell::Float(r.tokens_per_episode),
             Cell::Float(r.prompt_tokens_per_episode),
             Cell::Float(r.completion_tokens_per_episode),
+            if r.cached_share.is_finite() { Cell::Percent(100.0 * r.cached_share) } else { Cell::Missing },
+            Cell::Float(r.cached_share),
+            Cell::text(crate::eval::prices::usd_or_unknown(r.cost_usd)),
+            r.cost_usd.map_or(Cell::Unknown, Cell::Float),
             Cell::WithParen(
                 Box::new(Cell::Float(r.latency_s_per_episode)),
                 Box::new(Cell::Float(r.latency_s_per_episode_p95)),
@@ -607,7 +642,10 @@ pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
     t.note(
         "Parse errors are bad driving (the turn executed the conservative stop) and count in every score. errored: \
          requests failed after every retry (errors.jsonl); missing: never started (interrupted, budget). Both are \
-         excluded from every score; re-running the eval command resumes them.",
+         excluded from every score; re-running the eval command resumes them. Truncated turns were cut off by the \
+         completion-token limit (counted apart from parse errors). Cached: share of the prompt tokens served from the \
+         provider's prompt cache. Cost: eval's estimate at the prices of its prices file (run.json `pricing`); \
+         unknown when a model has no price there.",
     );
     t
 }

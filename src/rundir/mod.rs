@@ -263,6 +263,9 @@ pub struct Settings {
     pub concurrency: usize,
     pub max_retries: u32,
     pub max_total_tokens: Option<u64>,
+    /// `--max-cost` (USD), absent when not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_cost_usd: Option<f64>,
     pub request_timeout_s: f64,
 }
 
@@ -300,6 +303,10 @@ pub struct Invocation {
     /// Decision turns answered (requests that succeeded).
     #[serde(default)]
     pub turns: u64,
+    /// Estimated cost of this invocation's finished episodes (USD); `null`
+    /// when the price is unknown.
+    #[serde(default)]
+    pub cost_usd: Option<f64>,
     pub wall_s: f64,
 }
 
@@ -316,8 +323,44 @@ pub struct Totals {
     pub retries: u64,
     /// Tokens of the finished episodes.
     pub tokens: u64,
+    /// Estimated cost of the finished episodes (USD); `null` when any of
+    /// them has no known cost.
+    #[serde(default)]
+    pub cost_usd: Option<f64>,
     /// Wall time, over all invocations (s).
     pub wall_s: f64,
+}
+
+/// The token prices a run is billed at (run.json `pricing`), from the
+/// prices file (`configs/prices.toml`, or `--prices-file` over it). USD per
+/// million tokens. An estimate: see the prices file's header.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Pricing {
+    /// The provider entry that bills the endpoint's host (`openai`,
+    /// `local`, ...).
+    pub provider: String,
+    /// The model entry that matched: the id, a `*` pattern, or `*` for a
+    /// free provider.
+    pub entry: String,
+    pub input: f64,
+    /// Prompt tokens served from the provider's cache.
+    pub cached_input: f64,
+    /// Completion tokens, reasoning included.
+    pub output: f64,
+    /// When the figures were read from the provider's pricing page.
+    pub as_of: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+}
+
+impl Pricing {
+    /// USD for one request: `prompt` tokens of which `cached` were served
+    /// from the cache (clamped to `prompt`), and `output` billed output
+    /// tokens (hidden reasoning included).
+    pub fn cost(&self, prompt: u64, cached: u64, output: u64) -> f64 {
+        let cached = cached.min(prompt);
+        ((prompt - cached) as f64 * self.input + cached as f64 * self.cached_input + output as f64 * self.output) / 1e6
+    }
 }
 
 /// `run.json`.
@@ -338,6 +381,10 @@ pub struct RunInfo {
     pub invocations: u32,
     pub last_invocation: Invocation,
     pub totals: Totals,
+    /// The prices the run is billed at; `null` when the prices file has
+    /// none for this model and host (the cost is then unknown).
+    #[serde(default)]
+    pub pricing: Option<Pricing>,
 }
 
 /// Read `dir/run.json`; `None` if there is none. A file of a newer schema

@@ -134,6 +134,11 @@ pub struct RolloutRecord {
     /// Prompt tokens served from the provider's prompt cache.
     #[serde(default)]
     pub cached_tokens: u64,
+    /// Estimated cost in USD, summed over the turns at the run's
+    /// [`super::Pricing`]; absent when the price is unknown (never 0 for
+    /// "unknown").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost_usd: Option<f64>,
     /// Sum of the successful requests' latencies (ms).
     pub latency_ms: u64,
     /// Failed requests retried during this episode.
@@ -186,6 +191,8 @@ pub struct EpisodeScalars {
     #[serde(default)]
     pub cached_tokens: u64,
     #[serde(default)]
+    pub cost_usd: Option<f64>,
+    #[serde(default)]
     pub latency_ms: u64,
     #[serde(default)]
     pub retries: u32,
@@ -223,6 +230,7 @@ impl From<&RolloutRecord> for EpisodeScalars {
             truncated_turns: r.truncated_turns,
             reasoning_tokens: r.reasoning_tokens,
             cached_tokens: r.cached_tokens,
+            cost_usd: r.cost_usd,
             latency_ms: r.latency_ms,
             retries: r.retries,
         }

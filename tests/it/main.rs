@@ -2,6 +2,7 @@
 
 mod belief;
 mod core;
+mod cost;
 mod eval;
 mod faults;
 mod providers;

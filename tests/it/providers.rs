@@ -67,12 +67,18 @@ fn prompt_tokens(body: &Value) -> u64 {
     (body["messages"].to_string().len() / 4) as u64
 }
 
-type Handler = Arc<dyn Fn(&Value) -> (u16, Value) + Send + Sync>;
+pub type Handler = Arc<dyn Fn(&Value) -> (u16, Value) + Send + Sync>;
 
 /// An axum server on a background thread answering every POST to
 /// `/v1/chat/completions` with `handler(body)`; returns its base URL and
 /// what it saw.
 pub fn start_mock(handler: Handler) -> (String, Arc<Mutex<Seen>>) {
+    start_mock_on("127.0.0.1", handler)
+}
+
+/// [`start_mock`] on another loopback address (127.0.0.2 is this machine
+/// too, but not a host the prices file knows).
+pub fn start_mock_on(host: &'static str, handler: Handler) -> (String, Arc<Mutex<Seen>>) {
     use axum::routing::post;
     let seen = Arc::new(Mutex::new(Seen::default()));
     let (tx, rx) = std::sync::mpsc::channel();
@@ -80,7 +86,7 @@ pub fn start_mock(handler: Handler) -> (String, Arc<Mutex<Seen>>) {
     std::thread::spawn(move || {
         let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
         rt.block_on(async move {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            let listener = tokio::net::TcpListener::bind((host, 0)).await.unwrap();
             tx.send(listener.local_addr().unwrap().port()).unwrap();
             let app = axum::Router::new().route(
                 "/v1/chat/completions",
@@ -102,7 +108,7 @@ pub fn start_mock(handler: Handler) -> (String, Arc<Mutex<Seen>>) {
             axum::serve(listener, app).await.unwrap();
         });
     });
-    (format!("http://127.0.0.1:{}/v1", rx.recv().unwrap()), seen)
+    (format!("http://{host}:{}/v1", rx.recv().unwrap()), seen)
 }
 
 /// A mock for one provider: its rules, then a reply in its shape.

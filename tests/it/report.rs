@@ -109,9 +109,11 @@ fn write_run(dir: &Path, spec: &RunSpec, lines: &[String]) {
             retries: 0,
             tokens: 0,
             turns: 0,
+            cost_usd: None,
             wall_s: 0.0,
         },
         totals: Totals::default(),
+        pricing: None,
     };
     write_run_info(dir, &info).unwrap();
     std::fs::write(dir.join("rollouts.jsonl"), lines.concat()).unwrap();
