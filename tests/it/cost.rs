@@ -325,9 +325,9 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     insta::assert_snapshot!(table.join("\n"), @r"
     | scenario | tier | episodes | turns/ep (expert) | turn budget | prompt tokens/ep | cacheable | answer tokens/ep |
     |---|---|---|---|---|---|---|---|
-    | yield_standoff | 1 | 3 | 19.33 | 40 | 59702 | 91.0% | 504 |
-    | yield_standoff | 2 | 3 | 19.00 | 40 | 56049 | 90.6% | 498 |
-    | yield_standoff | 3 | 3 | 20.00 | 40 | 61194 | 90.9% | 524 |
+    | yield_standoff | 1 | 3 | 17.33 | 22 | 55856 | 89.8% | 456 |
+    | yield_standoff | 2 | 3 | 15.33 | 22 | 44920 | 88.7% | 397 |
+    | yield_standoff | 3 | 3 | 13.67 | 22 | 35525 | 87.2% | 349 |
     | pedestrian_feint | 1 | 3 | 13.00 | 18 | 26794 | 86.7% | 329 |
     | pedestrian_feint | 2 | 3 | 15.67 | 18 | 37823 | 88.9% | 400 |
     | pedestrian_feint | 3 | 3 | 13.00 | 18 | 26793 | 86.8% | 329 |
