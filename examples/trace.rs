@@ -1,5 +1,4 @@
 use negotiator::episode::*;
-use negotiator::observation::*;
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::*;
 fn main() {
@@ -35,28 +34,10 @@ fn main() {
             Some(s) => s[(o.turn as usize - 1).min(s.len() - 1)],
             None => p.act(&o),
         };
-        let (ed, others) = match o.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => (
-                ego_to_conflict_m,
-                format!(
-                    "o {:6.1} {:5.1} f {:6.1} {:5.1}",
-                    other.now.position_m, other.now.velocity_mps, follower.now.position_m, follower.now.velocity_mps
-                ),
-            ),
-            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-                (ego_to_crosswalk_m, format!("p {:6.2} {:5.2}", pedestrian.now.position_m, pedestrian.now.velocity_mps))
-            }
-            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => (
-                ego_to_merge_m,
-                format!(
-                    "L {:6.1} {:5.1} F {:6.1} {:5.1}",
-                    lane_car.now.position_m,
-                    lane_car.now.velocity_mps,
-                    follower.now.position_m,
-                    follower.now.velocity_mps
-                ),
-            ),
-        };
+        let ed = o.ego_to_conflict_m();
+        let others: Vec<String> =
+            o.scene.tracks().iter().map(|t| format!("{:6.2} {:5.2}", t.now.position_m, t.now.velocity_mps)).collect();
+        let others = others.join(" | ");
         println!(
             "t {:4.1} ego d {:6.1} v {:5.1} | {} | {} {:+.2} rev {}",
             o.time_s,

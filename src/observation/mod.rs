@@ -41,28 +41,7 @@ impl Track {
     }
 }
 
-/// Scenario-specific geometry, all distances in metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "scenario", rename_all = "snake_case")]
-pub enum Scene {
-    /// `ego_to_conflict_m`: the ego's front bumper to the crossing lane's
-    /// near edge. `other.position_m`: the other car's front bumper to the
-    /// ego lane's near edge (negative once it has entered; it has cleared
-    /// the conflict zone below -`CONFLICT_ZONE_M`). `follower`: the car
-    /// behind it on the crossing road, measured the same way.
-    YieldStandoff { ego_to_conflict_m: f64, other: Track, follower: Track },
-    /// `ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's
-    /// crossing line. `pedestrian.position_m`: lateral position from the
-    /// near kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far
-    /// edge of the ego lane); `velocity_mps` positive when moving into the
-    /// road.
-    PedestrianFeint { ego_to_crosswalk_m: f64, pedestrian: Track },
-    /// `ego_to_merge_m`: the ego's centre to the point where its body starts
-    /// to overlap the main lane; `ramp_left_m` to the end of the ramp.
-    /// `lane_car.position_m` / `follower.position_m`: their centre relative
-    /// to the ego's centre along the road (positive ahead of the ego).
-    ContestedMerge { ego_to_merge_m: f64, ramp_left_m: f64, lane_car: Track, follower: Track },
-}
+pub use crate::scenario::Scene;
 
 /// The ego's own state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -89,22 +68,14 @@ pub struct Observation {
 impl Observation {
     /// The scenario, as the scene's layout says.
     pub fn scenario(&self) -> ScenarioKind {
-        match self.scene {
-            Scene::YieldStandoff { .. } => ScenarioKind::YieldStandoff,
-            Scene::PedestrianFeint { .. } => ScenarioKind::PedestrianFeint,
-            Scene::ContestedMerge { .. } => ScenarioKind::ContestedMerge,
-        }
+        self.scene.kind()
     }
 
     /// The ego's own distance to the conflict: the conflict zone, the
     /// crossing line or the merge point. Part of the ego's own state (what
     /// a policy that ignores the other road user may still read).
     pub fn ego_to_conflict_m(&self) -> f64 {
-        match self.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, .. } => ego_to_conflict_m,
-            Scene::PedestrianFeint { ego_to_crosswalk_m, .. } => ego_to_crosswalk_m,
-            Scene::ContestedMerge { ego_to_merge_m, .. } => ego_to_merge_m,
-        }
+        self.scene.ego_to_conflict_m()
     }
 
     pub fn turns_left(&self) -> u32 {
@@ -119,22 +90,7 @@ impl Observation {
             now: Sample { position_m: r1(t.now.position_m), velocity_mps: r1(t.now.velocity_mps) },
             past: t.past.map(|s| Sample { position_m: r1(s.position_m), velocity_mps: r1(s.velocity_mps) }),
         };
-        let scene = match self.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => Scene::YieldStandoff {
-                ego_to_conflict_m: r1(ego_to_conflict_m),
-                other: track(other),
-                follower: track(follower),
-            },
-            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-                Scene::PedestrianFeint { ego_to_crosswalk_m: r1(ego_to_crosswalk_m), pedestrian: track(pedestrian) }
-            }
-            Scene::ContestedMerge { ego_to_merge_m, ramp_left_m, lane_car, follower } => Scene::ContestedMerge {
-                ego_to_merge_m: r1(ego_to_merge_m),
-                ramp_left_m: r1(ramp_left_m),
-                lane_car: track(lane_car),
-                follower: track(follower),
-            },
-        };
+        let scene = self.scene.map(r1, track);
         Observation {
             time_s: r1(self.time_s),
             turn: self.turn,

@@ -61,27 +61,18 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         ScenarioKind::from_scene_name(name).ok_or_else(|| SceneParseError::UnknownScenario(name.to_string()))?;
     let time_s = numbers_of(text, "Time", 1)?[0];
     let turn = numbers_of(text, "Turn", 4)?;
-    let ego_expected = if scenario == ScenarioKind::ContestedMerge { 6 } else { 5 };
+    let place_len = scenario.place_numbers();
+    let ego_expected = place_len + 4;
     let ego = numbers_of(text, "You", ego_expected)?;
     let (speed_mps, accel_mps2) = (ego[0], ego[1]);
     let (to_goal_m, speed_limit_mps) = (ego[ego_expected - 2], ego[ego_expected - 1]);
-    let scene = match scenario {
-        ScenarioKind::YieldStandoff => Scene::YieldStandoff {
-            ego_to_conflict_m: ego[2],
-            other: track(text, "Other car", "Other car over the last 2 s (oldest first)")?,
-            follower: track(text, "Car behind it", "Car behind it over the last 2 s (oldest first)")?,
-        },
-        ScenarioKind::PedestrianFeint => Scene::PedestrianFeint {
-            ego_to_crosswalk_m: ego[2],
-            pedestrian: track(text, "Pedestrian", "Pedestrian over the last 2 s (oldest first)")?,
-        },
-        ScenarioKind::ContestedMerge => Scene::ContestedMerge {
-            ego_to_merge_m: ego[2],
-            ramp_left_m: ego[3],
-            lane_car: track(text, "Lane car", "Lane car over the last 2 s (oldest first)")?,
-            follower: track(text, "Car behind it", "Car behind it over the last 2 s (oldest first)")?,
-        },
-    };
+    let tracks = scenario
+        .track_labels()
+        .iter()
+        .map(|label| track(text, label.now, label.history))
+        .collect::<Result<Vec<Track>, SceneParseError>>()?;
+    let scene = Scene::from_parts(scenario, &ego[2..2 + place_len], &tracks)
+        .expect("the place and track counts follow the scenario's own layout");
     let last = line(text, "Your last action")?.trim();
     let last_action = if last.starts_with("none") {
         None

@@ -3,6 +3,7 @@
 
 pub mod contested_merge;
 pub mod pedestrian_feint;
+mod scene;
 pub mod world;
 pub mod yield_standoff;
 
@@ -13,6 +14,7 @@ use std::str::FromStr;
 
 pub use contested_merge::MergeParams;
 pub use pedestrian_feint::PedestrianParams;
+pub use scene::Scene;
 pub use yield_standoff::YieldParams;
 
 /// The three validated negotiation scenarios.

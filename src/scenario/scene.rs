@@ -1,0 +1,200 @@
+//! The public scene of each scenario: what the observation holds beyond the
+//! ego's own state, how the scene text phrases it, and which baseline rules
+//! read it. With each scenario's own file and its registration in `mod.rs`,
+//! this is everything a new scenario adds: the observation module renders
+//! and parses any scene through the methods below without knowing which
+//! scenarios exist.
+
+use super::{ScenarioKind, contested_merge, pedestrian_feint, yield_standoff};
+use crate::action::Action;
+use crate::observation::Track;
+use serde::{Deserialize, Serialize};
+
+/// Scenario-specific geometry, all distances in metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "scenario", rename_all = "snake_case")]
+pub enum Scene {
+    /// `ego_to_conflict_m`: the ego's front bumper to the crossing lane's
+    /// near edge. `other.position_m`: the other car's front bumper to the
+    /// ego lane's near edge (negative once it has entered; it has cleared
+    /// the conflict zone below -`CONFLICT_ZONE_M`). `follower`: the car
+    /// behind it on the crossing road, measured the same way.
+    YieldStandoff { ego_to_conflict_m: f64, other: Track, follower: Track },
+    /// `ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's
+    /// crossing line. `pedestrian.position_m`: lateral position from the
+    /// near kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far
+    /// edge of the ego lane); `velocity_mps` positive when moving into the
+    /// road.
+    PedestrianFeint { ego_to_crosswalk_m: f64, pedestrian: Track },
+    /// `ego_to_merge_m`: the ego's centre to the point where its body starts
+    /// to overlap the main lane; `ramp_left_m` to the end of the ramp.
+    /// `lane_car.position_m` / `follower.position_m`: their centre relative
+    /// to the ego's centre along the road (positive ahead of the ego).
+    ContestedMerge { ego_to_merge_m: f64, ramp_left_m: f64, lane_car: Track, follower: Track },
+}
+
+/// A road user's lines in the scene text: its label (the line key) and the
+/// key of its history line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct TrackLabel {
+    pub now: &'static str,
+    pub history: &'static str,
+}
+
+const OTHER_CAR: TrackLabel = TrackLabel { now: "Other car", history: "Other car over the last 2 s (oldest first)" };
+const CAR_BEHIND: TrackLabel =
+    TrackLabel { now: "Car behind it", history: "Car behind it over the last 2 s (oldest first)" };
+const PEDESTRIAN: TrackLabel = TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)" };
+const LANE_CAR: TrackLabel = TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)" };
+
+const YIELD_SITUATION: &str = "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (a car has fully crossed below -6.7 m).";
+const PEDESTRIAN_SITUATION: &str = "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian's position is lateral, from the near kerb: negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line.";
+const MERGE_SITUATION: &str = "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you). Your body starts to overlap the lane at the merge point.";
+
+impl ScenarioKind {
+    /// The scene text's "Situation:" paragraph.
+    pub(crate) fn situation(self) -> &'static str {
+        match self {
+            ScenarioKind::YieldStandoff => YIELD_SITUATION,
+            ScenarioKind::PedestrianFeint => PEDESTRIAN_SITUATION,
+            ScenarioKind::ContestedMerge => MERGE_SITUATION,
+        }
+    }
+
+    /// The road users' labels in the scene text, in the scene's order.
+    pub(crate) fn track_labels(self) -> &'static [TrackLabel] {
+        match self {
+            ScenarioKind::YieldStandoff => &[OTHER_CAR, CAR_BEHIND],
+            ScenarioKind::PedestrianFeint => &[PEDESTRIAN],
+            ScenarioKind::ContestedMerge => &[LANE_CAR, CAR_BEHIND],
+        }
+    }
+
+    /// How many numbers the ego's place takes on the "You:" line.
+    pub(crate) fn place_numbers(self) -> usize {
+        match self {
+            ScenarioKind::ContestedMerge => 2,
+            _ => 1,
+        }
+    }
+
+    /// The current sample of a road user, e.g. "21.0 m to the conflict
+    /// zone, speed 9.4 m/s", from its formatted position and velocity.
+    pub(crate) fn track_now(self, position: &str, velocity: &str) -> String {
+        match self {
+            ScenarioKind::YieldStandoff => format!("{position} m to the conflict zone, speed {velocity} m/s"),
+            ScenarioKind::PedestrianFeint => format!("at {position} m (lateral), velocity {velocity} m/s"),
+            ScenarioKind::ContestedMerge => format!("at {position} m (relative to you), speed {velocity} m/s"),
+        }
+    }
+}
+
+impl Scene {
+    /// The scenario, as the scene's layout says.
+    pub fn kind(&self) -> ScenarioKind {
+        match self {
+            Scene::YieldStandoff { .. } => ScenarioKind::YieldStandoff,
+            Scene::PedestrianFeint { .. } => ScenarioKind::PedestrianFeint,
+            Scene::ContestedMerge { .. } => ScenarioKind::ContestedMerge,
+        }
+    }
+
+    /// The ego's own distance to the conflict: the conflict zone, the
+    /// crossing line or the merge point.
+    pub fn ego_to_conflict_m(&self) -> f64 {
+        match *self {
+            Scene::YieldStandoff { ego_to_conflict_m, .. } => ego_to_conflict_m,
+            Scene::PedestrianFeint { ego_to_crosswalk_m, .. } => ego_to_crosswalk_m,
+            Scene::ContestedMerge { ego_to_merge_m, .. } => ego_to_merge_m,
+        }
+    }
+
+    /// The numbers of the ego's place on the "You:" line
+    /// ([`ScenarioKind::place_numbers`] of them).
+    pub(crate) fn place(&self) -> Vec<f64> {
+        match *self {
+            Scene::ContestedMerge { ego_to_merge_m, ramp_left_m, .. } => vec![ego_to_merge_m, ramp_left_m],
+            _ => vec![self.ego_to_conflict_m()],
+        }
+    }
+
+    /// The ego's place as the "You:" line phrases it, from formatted numbers.
+    pub(crate) fn place_text(&self, format: impl Fn(f64) -> String) -> String {
+        match *self {
+            Scene::YieldStandoff { ego_to_conflict_m, .. } => {
+                format!("{} m to the conflict zone", format(ego_to_conflict_m))
+            }
+            Scene::PedestrianFeint { ego_to_crosswalk_m, .. } => {
+                format!("{} m to the crosswalk", format(ego_to_crosswalk_m))
+            }
+            Scene::ContestedMerge { ego_to_merge_m, ramp_left_m, .. } => {
+                format!("{} m to the merge point, {} m of ramp left", format(ego_to_merge_m), format(ramp_left_m))
+            }
+        }
+    }
+
+    /// The road users' tracks, in the order of [`ScenarioKind::track_labels`].
+    pub fn tracks(&self) -> Vec<Track> {
+        match *self {
+            Scene::YieldStandoff { other, follower, .. } => vec![other, follower],
+            Scene::PedestrianFeint { pedestrian, .. } => vec![pedestrian],
+            Scene::ContestedMerge { lane_car, follower, .. } => vec![lane_car, follower],
+        }
+    }
+
+    /// Rebuild a scene from its place numbers and tracks (the inverse of
+    /// [`Scene::place`] and [`Scene::tracks`]); `None` if the counts do not
+    /// match the scenario's layout.
+    pub(crate) fn from_parts(kind: ScenarioKind, place: &[f64], tracks: &[Track]) -> Option<Scene> {
+        Some(match (kind, place, tracks) {
+            (ScenarioKind::YieldStandoff, &[d], &[other, follower]) => {
+                Scene::YieldStandoff { ego_to_conflict_m: d, other, follower }
+            }
+            (ScenarioKind::PedestrianFeint, &[d], &[pedestrian]) => {
+                Scene::PedestrianFeint { ego_to_crosswalk_m: d, pedestrian }
+            }
+            (ScenarioKind::ContestedMerge, &[d, ramp], &[lane_car, follower]) => {
+                Scene::ContestedMerge { ego_to_merge_m: d, ramp_left_m: ramp, lane_car, follower }
+            }
+            _ => return None,
+        })
+    }
+
+    /// The same scene with every number passed through `number` and every
+    /// track through `track` (used to round to the printed precision).
+    pub(crate) fn map(&self, number: impl Fn(f64) -> f64, track: impl Fn(Track) -> Track) -> Scene {
+        let place: Vec<f64> = self.place().into_iter().map(&number).collect();
+        let tracks: Vec<Track> = self.tracks().into_iter().map(track).collect();
+        Scene::from_parts(self.kind(), &place, &tracks).expect("a scene's own parts rebuild it")
+    }
+
+    /// The expert's action (see `policy::expert`): each scenario's rule.
+    pub(crate) fn expert(&self, v: f64, v_max: f64, last: Option<Action>) -> Action {
+        match self {
+            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
+                yield_standoff::expert(v, v_max, *ego_to_conflict_m, other, follower, last)
+            }
+            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
+                pedestrian_feint::expert(v, v_max, *ego_to_crosswalk_m, pedestrian)
+            }
+            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
+                contested_merge::expert(v, v_max, *ego_to_merge_m, lane_car, follower)
+            }
+        }
+    }
+
+    /// The cue follower's action: each scenario's instantaneous-cue rule.
+    pub(crate) fn cue_follower(&self, v: f64, v_max: f64) -> Action {
+        match self {
+            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
+                yield_standoff::cue_follower(v, v_max, *ego_to_conflict_m, other, follower)
+            }
+            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
+                pedestrian_feint::cue_follower(v, v_max, *ego_to_crosswalk_m, pedestrian)
+            }
+            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
+                contested_merge::cue_follower(v, v_max, *ego_to_merge_m, lane_car, follower)
+            }
+        }
+    }
+}
