@@ -154,6 +154,11 @@ struct TurnOut {
     k: u64,
     l: u64,
     n: u32,
+    /// Belief probe: the stated belief and the ideal observer's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    b: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ib: Option<f64>,
     /// Ego and other road users: [x, y, v] in the plan view.
     #[serde(skip_serializing_if = "Option::is_none")]
     ego: Option<[f64; 3]>,
@@ -164,6 +169,12 @@ struct TurnOut {
 #[derive(Debug, Serialize)]
 struct TranscriptOut {
     turns: Vec<TurnOut>,
+    /// The evidence turn, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ev: Option<u32>,
+    /// Made with the belief probe.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    p: bool,
 }
 
 /// One episode's scalars: model, scenario, tier, seed, rollout, outcome
@@ -251,6 +262,8 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
                     k: t.tokens,
                     l: t.latency_ms,
                     n: t.attempts,
+                    b: t.belief.map(round3),
+                    ib: t.ideal_belief.map(round3),
                     ego: point.and_then(|p| p.agents.first()).map(|a| [round2(a.x), round2(a.y), round2(a.v)]),
                     o: point
                         .map(|p| p.agents.iter().skip(1).map(|a| [round2(a.x), round2(a.y), round2(a.v)]).collect())
@@ -258,7 +271,7 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
                 }
             })
             .collect();
-        let out = TranscriptOut { turns };
+        let out = TranscriptOut { turns, ev: l.record.timing.evidence_turn, p: l.record.belief.is_some() };
         bytes += serde_json::to_string(&out).map_or(0, |s| s.len());
         transcript_of.insert((l.model, l.episode), transcripts.len() as i32);
         transcripts.push(out);

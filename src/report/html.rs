@@ -155,6 +155,10 @@ const JS: &str = r#"
       var mm = el('b', t.m); mm.style.color = MCOL[t.m] || '#222'; ac.appendChild(mm);
       ac.appendChild(document.createTextNode(' ' + f2(t.a)));
       (t.e || []).forEach(function (x) { ac.appendChild(el('div', 'parse error: ' + x, 'pe')); });
+      var ideal = t.ib !== undefined ? 'ideal belief ' + f2(t.ib) : '';
+      if (T.p) ac.appendChild(el('div', 'belief ' + (t.b !== undefined ? f2(t.b) : 'none (probe parse error)') + (ideal ? ', ' + ideal : ''), t.b !== undefined ? 'muted' : 'pe'));
+      else if (ideal) ac.appendChild(el('div', ideal, 'muted'));
+      if (T.ev === t.t) ac.appendChild(el('div', 'evidence turn', 'pe'));
       tr.appendChild(ac);
       var dt = (t.time !== undefined && prevTime !== null) ? t.time - prevTime : 0;
       var ot = el('td');

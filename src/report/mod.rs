@@ -9,6 +9,7 @@
 //! drill-down data; [`plots`] one file per kind of figure; [`html`] the page.
 //! Tables are [`crate::export`] tables.
 
+pub mod belief;
 pub mod boot;
 pub mod drill;
 pub mod html;
@@ -127,6 +128,9 @@ pub struct Report {
     pub costs: Vec<CostRow>,
     pub paired: Vec<PairRow>,
     pub pass_k: Vec<PassKRow>,
+    /// Belief-probe runs: one row per (model, scenario, tier).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub belief: Vec<belief::BeliefRow>,
     pub references: References,
     pub plots: Vec<Plot>,
     pub warnings: Vec<String>,
@@ -244,6 +248,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     let costs = tables::cost_rows(&ordered);
     let paired = paired::all_pairs(&ordered, &tiers, opts.resamples, opts.seed);
     let pass_k = passk::pass_k_rows(&ordered, &tiers);
+    let belief = belief::rows(&ordered);
     let chosen = drill::choose(&data, opts.transcripts_per_cell);
     let transcripts = drill::load(&data, &chosen)?;
     if transcripts.len() < chosen.len() {
@@ -284,6 +289,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         costs,
         paired,
         pass_k,
+        belief,
         references: refs,
         plots,
         warnings,
@@ -303,6 +309,9 @@ impl Report {
         ];
         if !self.pass_k.is_empty() {
             t.push(passk::pass_k_table(&self.pass_k, &self.tiers));
+        }
+        if !self.belief.is_empty() {
+            t.push(belief::table(&self.belief));
         }
         for table in &mut t {
             self.mark_incomplete(table);

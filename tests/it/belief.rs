@@ -83,6 +83,22 @@ fn eval_against_the_served_expert_reproduces_the_ideal_observer_exactly() {
     }
     // Only the noise tier has beliefs strictly between the certainties.
     assert!(noisy_turns_between > 0);
+    // The report has the belief table, both belief figures and the beliefs
+    // in the drill-down.
+    let rep = out.join("report");
+    let status = negotiator().args(["report", "--quiet", "--out"]).arg(&rep).arg(out.join("run")).status().unwrap();
+    assert!(status.success());
+    let csv = std::fs::read_to_string(rep.join("belief.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 9, "{csv}");
+    assert!(csv.lines().next().unwrap().contains("brier_before"), "{csv}");
+    for plot in ["belief_reliability", "belief_over_time"] {
+        let svg = std::fs::read_to_string(rep.join(format!("plots/{plot}.svg"))).unwrap();
+        assert!(!svg.contains("NaN"), "{plot}");
+    }
+    let over_time = std::fs::read_to_string(rep.join("plots/belief_over_time.svg")).unwrap();
+    assert!(over_time.contains("evidence turn") && over_time.contains("ideal observer"));
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    assert!(html.contains("\"p\":true") && html.contains("\"ib\":"), "drill-down beliefs");
     for cell in summary_cells(&out.join("run")) {
         let b = &cell["belief"];
         for (stated, ideal) in [("brier_before", "ideal_brier_before"), ("brier_after", "ideal_brier_after")] {
@@ -186,6 +202,12 @@ fn a_probe_run_is_its_own_run_and_a_missing_belief_never_touches_the_action() {
     assert!(plain_run["config"].get("probe").is_none());
     assert_ne!(probe_run["config"]["prompt_hash"], plain_run["config"]["prompt_hash"]);
     assert_ne!(probe_run["config_hash"], plain_run["config_hash"]);
+    // A report of runs without the probe has no belief table.
+    let rep = out.join("report-plain");
+    let status = negotiator().args(["report", "--quiet", "--out"]).arg(&rep).arg(out.join("plain")).status().unwrap();
+    assert!(status.success());
+    assert!(!rep.join("belief.csv").exists());
+    assert!(!rep.join("plots/belief_reliability.svg").exists());
     // Resuming the probe run without the probe is refused, naming it.
     let refused = eval(&server.base_url(), &out, "probe", &args).output().unwrap();
     assert!(!refused.status.success());

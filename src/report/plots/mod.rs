@@ -3,6 +3,7 @@
 //! namespace; the copies inlined in report.html not even that). Every text
 //! is escaped.
 
+mod belief;
 mod correctness;
 mod outcomes;
 mod radar;
@@ -145,6 +146,7 @@ pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     plots.push(outcomes::plot(input));
     plots.extend(radar::plot(input));
     plots.extend(trajectory::plots(input));
+    plots.extend(belief::plots(input));
     plots
 }
 
