@@ -168,9 +168,14 @@ impl Reporter for Bar {
         if let Event::Planned { to_run, .. } = event {
             let bar = ProgressBar::with_draw_target(Some(*to_run as u64), ProgressDrawTarget::stderr());
             bar.set_style(
-                ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} episodes | {msg} | ETA {eta}")
-                    .expect("valid template")
-                    .progress_chars("=> "),
+                ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:30}] {pos}/{len} episodes | {msg} | ETA {eta_or_dash}",
+                )
+                .expect("valid template")
+                .with_key("eta_or_dash", |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = w.write_str(&eta_text(s.pos(), s.len().unwrap_or(0), s.eta()));
+                })
+                .progress_chars("=> "),
             );
             Bar::draw(&bar, &self.live);
             let (b, live) = (bar.clone(), self.live.clone());
@@ -178,6 +183,12 @@ impl Reporter for Bar {
             self.bar = Some((bar, ticker));
         }
     }
+}
+
+/// The ETA shown: "-" before the first episode finishes (nothing to
+/// extrapolate from; "0s" at 0/N would read as "done"), else whole seconds.
+pub(crate) fn eta_text(done: u64, total: u64, eta: Duration) -> String {
+    if done == 0 && total > 0 { "-".to_string() } else { format!("{}s", eta.as_secs_f64().round() as u64) }
 }
 
 /// A plain progress line every `interval` (for logs and CI), and the event
@@ -213,11 +224,15 @@ impl Reporter for Lines {
             self.ticker = Some(Ticker::start(self.interval, move || {
                 let done = live.done.load(Relaxed);
                 let elapsed = started.elapsed().as_secs_f64();
-                let eta = if done == 0 {
-                    "-".to_string()
-                } else {
-                    format!("{:.0}s", elapsed / done as f64 * total.saturating_sub(done) as f64)
-                };
+                let eta = eta_text(
+                    done,
+                    total,
+                    Duration::from_secs_f64(if done == 0 {
+                        0.0
+                    } else {
+                        elapsed / done as f64 * (total - done.min(total)) as f64
+                    }),
+                );
                 crate::redact::eline!("[{elapsed:.0}s] {done}/{total} episodes | {} | ETA {eta}", status(&live));
             }));
         }
@@ -268,6 +283,24 @@ impl<W: Write> Reporter for JsonLines<W> {
 mod tests {
     use super::*;
     use crate::episode::Outcome;
+
+    #[test]
+    fn no_eta_before_the_first_episode() {
+        assert_eq!(eta_text(0, 120, Duration::ZERO), "-");
+        assert_eq!(eta_text(3, 120, Duration::from_secs_f64(41.6)), "42s");
+        assert_eq!(eta_text(120, 120, Duration::ZERO), "0s");
+        // The bar's own template uses it.
+        let bar = ProgressBar::hidden();
+        bar.set_length(10);
+        let style = ProgressStyle::with_template("{eta_or_dash}").unwrap().with_key(
+            "eta_or_dash",
+            |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                let _ = w.write_str(&eta_text(s.pos(), s.len().unwrap_or(0), s.eta()));
+            },
+        );
+        bar.set_style(style);
+        assert_eq!(eta_text(bar.position(), bar.length().unwrap(), bar.eta()), "-");
+    }
     use crate::eval::events::StopReason;
     use crate::rundir::RunStatus;
     use crate::rundir::record::EpisodeKey;

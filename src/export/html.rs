@@ -15,14 +15,18 @@ impl Exporter for HtmlExporter {
             esc(&table.name),
             esc(&table.title)
         );
-        for (_, h) in table.shown() {
-            let _ = write!(s, "<th>{}</th>", esc(h));
+        // Numeric columns (every cell a number or empty) are right-aligned.
+        let numeric: Vec<bool> =
+            table.shown().map(|(i, _)| table.rows.iter().all(|r| r[i].is_numeric_or_empty())).collect();
+        let class = |k: usize| if numeric[k] { " class=\"num\"" } else { "" };
+        for (k, (_, h)) in table.shown().enumerate() {
+            let _ = write!(s, "<th{}>{}</th>", class(k), esc(h));
         }
         s.push_str("</tr></thead><tbody>");
         for r in table.display_rows() {
             s.push_str("<tr>");
-            for v in r {
-                let _ = write!(s, "<td>{}</td>", esc(&v));
+            for (k, v) in r.iter().enumerate() {
+                let _ = write!(s, "<td{}>{}</td>", class(k), esc(v));
             }
             s.push_str("</tr>");
         }

@@ -49,6 +49,15 @@ impl Cell {
         Cell::Interval(Interval { estimate: x, lo: f64::NAN, hi: f64::NAN })
     }
 
+    /// A number (or nothing): right-aligned in HTML.
+    pub(crate) fn is_numeric_or_empty(&self) -> bool {
+        match self {
+            Cell::Text(_) | Cell::Marked(_) => false,
+            Cell::WithParen(a, _) => a.is_numeric_or_empty(),
+            _ => true,
+        }
+    }
+
     /// The value as shown in the text, Markdown and HTML renderings.
     pub(crate) fn display(&self, style: Style) -> String {
         match (self, style) {

@@ -20,6 +20,7 @@ h2{margin-top:34px;border-bottom:2px solid #e3e3e3;padding-bottom:4px}
 table.t{border-collapse:collapse;font-size:13px;margin:8px 0 4px}
 table.t caption{text-align:left;font-weight:bold;padding:4px 0}
 table.t th,table.t td{border:1px solid #ddd;padding:3px 8px;text-align:left;white-space:nowrap}
+table.t th.num,table.t td.num{text-align:right;font-variant-numeric:tabular-nums}
 table.t th{background:#f4f5f7}
 table.t tbody tr:nth-child(even){background:#fafafa}
 p.note{font-size:12px;color:#555;margin:2px 0 14px;max-width:1100px}
@@ -44,7 +45,7 @@ dl.defs dt{font-weight:bold;margin-top:8px}
 dl.defs dd{margin-left:16px;font-size:13.5px;max-width:1100px}
 "#;
 
-const JS: &str = r#"
+const JS: &str = r##"
 (function () {
   var D = JSON.parse(document.getElementById('drill-data').textContent);
   var root = document.getElementById('drill');
@@ -103,9 +104,36 @@ const JS: &str = r#"
     }
     return s;
   }
+  // The plan view of the embedded positions: the ego solid, the others dashed, equal aspect.
+  // Built as markup (numbers only), so the page names no namespace URL.
+  function drawTrajectory(T, box) {
+    var ego = [], others = [];
+    T.turns.forEach(function (t) {
+      if (t.ego) ego.push(t.ego);
+      (t.o || []).forEach(function (p, k) { (others[k] = others[k] || []).push(p); });
+    });
+    var all = ego.concat.apply(ego, others);
+    if (all.length < 2) { box.appendChild(el('p', 'No positions recorded for this episode.', 'muted')); return; }
+    var xs = all.map(function (p) { return p[0]; }), ys = all.map(function (p) { return p[1]; });
+    var x0 = Math.min.apply(null, xs), x1 = Math.max.apply(null, xs), y0 = Math.min.apply(null, ys), y1 = Math.max.apply(null, ys);
+    var span = Math.max(x1 - x0, y1 - y0, 10) * 1.1, cx = (x0 + x1) / 2, cy = (y0 + y1) / 2, W = 260;
+    function pt(p) { return f2((p[0] - cx) / span * W + W / 2) + ',' + f2(W / 2 - (p[1] - cy) / span * W); }
+    function line(ps, color, dash) {
+      return '<polyline fill="none" stroke-width="2" stroke="' + color + '"' + (dash ? ' stroke-dasharray="5 3"' : '') +
+        ' points="' + ps.map(pt).join(' ') + '"></polyline>';
+    }
+    var svg = '<svg viewBox="0 0 ' + W + ' ' + W + '" width="' + W + '" height="' + W + '" role="img">' +
+      '<rect width="' + W + '" height="' + W + '" fill="#fafafa"></rect>';
+    others.forEach(function (ps, k) { svg += line(ps, k ? '#7f7f7f' : '#c0704a', true); });
+    svg += line(ego, '#6a3d9a', false) + '</svg>';
+    box.innerHTML = svg;
+    box.appendChild(el('div', 'Plan view at the decision turns: ego solid, other road user(s) dashed (m, equal aspect).', 'muted'));
+  }
   function render() {
-    var e = current(), sum = $('dd-summary'), body = $('dd-turns'), strip = $('dd-strip'), note = $('dd-note');
-    [sum, body, strip, note].forEach(function (n) { while (n.firstChild) n.removeChild(n.firstChild); });
+    var e = current(), sum = $('dd-summary'), body = $('dd-turns'), strip = $('dd-strip'), note = $('dd-note'), traj = $('dd-traj');
+    [sum, body, strip, note, traj].forEach(function (n) { while (n.firstChild) n.removeChild(n.firstChild); });
+    // Reset first, so an episode without a transcript never shows the previous one's count.
+    $('dd-count').textContent = '0';
     if (!e) { root.setAttribute('data-state', 'empty'); return; }
     var parts = [['model', D.models[e[0]]], ['scenario', D.scenarios[e[1]]], ['tier', e[2]], ['seed', e[3]], ['rollout', e[4]],
       ['outcome', D.outcomes[e[5]]], ['hidden disposition (privileged)', D.dispositions[e[6]]], ['reward', f2(e[7])],
@@ -125,6 +153,7 @@ const JS: &str = r#"
     }
     note.textContent = 'Full record: ' + src + '.';
     var T = D.transcripts[e[13]];
+    drawTrajectory(T, traj);
     T.turns.forEach(function (t) {
       var d = el('div');
       d.style.background = MCOL[t.m] || '#999';
@@ -185,8 +214,17 @@ const JS: &str = r#"
     fillScenarios(first[1]); fillTiers(first[2]); fillSeeds(first[3]); fillRollouts(first[4]);
   }
   render();
+  // A link to one episode: report.html#episode=MODEL|SCENARIO|TIER|SEED|ROLLOUT (indices as in the data).
+  if (location.hash.indexOf('#episode=') === 0) {
+    var want = decodeURIComponent(location.hash.slice(9)).split('|');
+    if (want.length === 5) {
+      S.model.value = want[0];
+      fillScenarios(want[1]); fillTiers(want[2]); fillSeeds(want[3]); fillRollouts(want[4]);
+      render();
+    }
+  }
 })();
-"#;
+"##;
 
 /// The whole page.
 pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
@@ -212,8 +250,11 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     );
     s.push_str(
         "<nav><a href=\"#leaderboard\">Leaderboard</a><a href=\"#figures\">Figures</a><a href=\"#tiers\">Per tier</a>\
-         <a href=\"#outcomes\">Outcomes</a><a href=\"#errors\">Errors &amp; cost</a><a href=\"#paired\">Paired</a>",
+         <a href=\"#outcomes\">Outcomes</a><a href=\"#errors\">Errors &amp; cost</a>",
     );
+    if !report.paired.is_empty() {
+        s.push_str("<a href=\"#paired\">Paired</a>");
+    }
     if !report.pass_k.is_empty() {
         s.push_str("<a href=\"#passk\">pass^k</a>");
     }
@@ -231,7 +272,9 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     let _ = write!(s, "<h2 id=\"tiers\">Per tier</h2>{}", table("tiers"));
     let _ = write!(s, "<h2 id=\"outcomes\">Outcome decomposition</h2>{}", table("outcomes"));
     let _ = write!(s, "<h2 id=\"errors\">Errors, tokens and latency</h2>{}", table("errors_cost"));
-    let _ = write!(s, "<h2 id=\"paired\">Paired comparisons</h2>{}", table("paired"));
+    if !report.paired.is_empty() {
+        let _ = write!(s, "<h2 id=\"paired\">Paired comparisons</h2>{}", table("paired"));
+    }
     if !report.pass_k.is_empty() {
         let _ = write!(s, "<h2 id=\"passk\">pass^k</h2>{}", table("pass_k"));
     }
@@ -269,6 +312,7 @@ fn drill_section(s: &mut String, drill: &DrillData) {
          and tier (the first collision, timeout and success by seed, then the lowest seeds; {} in this file{}). \
          Replies longer than {} characters are cut.</p>\
          <div id=\"dd-summary\"></div><div id=\"dd-strip\" class=\"strip\"></div><p id=\"dd-note\" class=\"note\"></p>\
+         <div id=\"dd-traj\"></div>\
          <table class=\"turns\"><thead><tr><th>turn</th><th>t (s)</th><th>scene (what the model read)</th>\
          <th>raw reply</th><th>parsed action</th><th>other road user(s): position, speed, acceleration</th>\
          <th>cost</th></tr></thead><tbody id=\"dd-turns\"></tbody></table><p class=\"muted\"><span id=\"dd-count\">0</span> turns shown.</p></div>",

@@ -305,8 +305,11 @@ impl Report {
             tables::tier_table(&self.tier_rows),
             tables::outcome_table(&self.outcomes, &self.tiers),
             tables::cost_table(&self.costs),
-            paired::paired_table(&self.paired, &self.tiers, self.resamples),
         ];
+        // One model: no pairs, no (empty) paired table.
+        if !self.paired.is_empty() {
+            t.push(paired::paired_table(&self.paired, &self.tiers, self.resamples));
+        }
         if !self.pass_k.is_empty() {
             t.push(passk::pass_k_table(&self.pass_k, &self.tiers));
         }

@@ -270,6 +270,8 @@ fn pass_k_counts_only_seeds_with_every_rollout() {
         table.contains("seeds excluded") && table.contains("m \u{2020}    all             3  3           1"),
         "{table}"
     );
+    // One model: no (empty) paired table, on the terminal or anywhere.
+    assert!(built.report.render_table("paired", Format::Table).is_none());
     // The leaderboard's unit is the seed: success = mean over seeds of the rollout rates.
     let lb = &built.report.leaderboard.rows[0];
     let expected = (2.0 / 3.0 + 1.0 + 1.0 / 3.0 + 1.0) / 4.0;
@@ -615,6 +617,12 @@ fn end_to_end_report_files_and_offline_html() {
         assert!(!html.contains(bad), "report.html contains {bad}");
     }
     assert!(html.contains("id=\"drill-data\"") && html.contains("<svg "));
+    // Numbers are right-aligned; names are not.
+    assert!(
+        html.contains("<th class=\"num\">episodes</th>") && html.contains("<td class=\"num\">"),
+        "no numeric alignment"
+    );
+    assert!(html.contains("<td>expert</td>"));
     assert_well_formed("report.html body", &html[html.find("<main>").unwrap()..html.find("</main>").unwrap() + 7]);
 
     // Headless Chromium renders it and the drill-down script fills the episode view.
@@ -637,6 +645,35 @@ fn end_to_end_report_files_and_offline_html() {
     assert!(dom.contains("data-state=\"rendered\""), "the drill-down did not render: {}", &dom[..dom.len().min(400)]);
     assert!(dom.contains("class=\"turn-row\""), "no turn rows in the rendered drill-down");
     assert!(dom.contains("data-episode=\"0|"), "the first model's episode is shown");
+    // The selected episode's trajectory is drawn from the embedded positions.
+    let traj = &dom[dom.find("id=\"dd-traj\"").expect("trajectory box")..];
+    assert!(traj[..traj.find("</div>").unwrap()].contains("<polyline"), "no trajectory drawn");
+    // Switching to an episode without a transcript shows no stale turn count.
+    let data_start = html.find("id=\"drill-data\">").unwrap() + "id=\"drill-data\">".len();
+    let data: Value =
+        serde_json::from_str(&html[data_start..data_start + html[data_start..].find("</script>").unwrap()]).unwrap();
+    let bare = data["episodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e[13].as_i64() < Some(0))
+        .expect("an episode without transcript");
+    let key = (0..5).map(|i| bare[i].to_string()).collect::<Vec<_>>().join("|");
+    let dom = Command::new(chromium)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
+        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("file://{}#episode={}", dir.join("report.html").display(), key.replace('|', "%7C")))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(dom.contains(&format!("data-episode=\"{key}\"")), "episode {key} not selected");
+    assert!(dom.contains("data-state=\"summary\""), "{key}: not the summary state");
+    assert!(dom.contains("<span id=\"dd-count\">0</span>"), "a stale turn count is shown");
+    assert!(
+        !dom[dom.find("id=\"dd-traj\"").unwrap()..].starts_with("id=\"dd-traj\"><svg"),
+        "a stale trajectory is shown"
+    );
 }
 
 #[test]
