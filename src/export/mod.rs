@@ -173,7 +173,7 @@ mod tests {
 
     #[test]
     fn html() {
-        insta::assert_snapshot!(HtmlExporter.render(&demo()), @r#"<table class="t" data-table="demo"><caption>Demo | table</caption><thead><tr><th>model</th><th>tier</th><th>success [95% CI]</th><th>A − B</th><th>p</th><th>tokens/ep</th><th>errors</th></tr></thead><tbody><tr><td>a|b</td><td>1</td><td>0.50 [0.25, 0.75]</td><td>+0.10 [-0.04, +0.30]</td><td>&lt;0.001</td><td>1234</td><td>3 (7.5%)</td></tr><tr><td>&lt;c&gt;</td><td>3</td><td>-</td><td>-</td><td>0.250</td><td>?</td><td>0 (0.0%)</td></tr></tbody></table><p class="note">n: a note</p>"#);
+        insta::assert_snapshot!(HtmlExporter.render(&demo()), @r#"<table class="t" data-table="demo"><caption>Demo | table</caption><thead><tr><th>model</th><th class="num">tier</th><th class="num">success [95% CI]</th><th class="num">A − B</th><th class="num">p</th><th class="num">tokens/ep</th><th class="num">errors</th></tr></thead><tbody><tr><td>a|b</td><td class="num">1</td><td class="num">0.50 [0.25, 0.75]</td><td class="num">+0.10 [-0.04, +0.30]</td><td class="num">&lt;0.001</td><td class="num">1234</td><td class="num">3 (7.5%)</td></tr><tr><td>&lt;c&gt;</td><td class="num">3</td><td class="num">-</td><td class="num">-</td><td class="num">0.250</td><td class="num">?</td><td class="num">0 (0.0%)</td></tr></tbody></table><p class="note">n: a note</p>"#);
     }
 
     #[test]

@@ -7,8 +7,8 @@ use super::{Exporter, Table};
 pub(crate) const TERMINAL_COLUMNS: usize = 100;
 
 /// Model names are shortened (in the middle, `…`) to no fewer characters
-/// than this.
-const MIN_NAME: usize = 12;
+/// than this (the reference rows' "always_proceed floor" stays whole).
+const MIN_NAME: usize = 20;
 
 /// Shorten the model-name columns (keys `model`, `a`, `b`) in the middle
 /// until the table fits [`TERMINAL_COLUMNS`] (or the names reach
