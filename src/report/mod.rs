@@ -4,7 +4,7 @@
 //!
 //! Layout: [`load`] reads and merges run directories; [`tables`] builds the
 //! leaderboard, per-tier, outcome and cost tables; [`paired`] the pairwise
-//! comparisons; [`passk`] pass^k; [`reference`] the expert ceiling and
+//! comparisons; [`passk`] pass^k; [`timing`] guess rate and evidence lag; [`reference`] the expert ceiling and
 //! `always_proceed` floor; [`boot`] the report's bootstraps; [`drill`] the
 //! drill-down data; [`plots`] one file per kind of figure; [`html`] the page.
 //! Tables are [`crate::export`] tables.
@@ -19,6 +19,7 @@ pub mod passk;
 pub mod plots;
 pub mod reference;
 pub mod tables;
+pub mod timing;
 
 use crate::export::{Cell, Column, CsvExporter, Exporter, Format, INCOMPLETE_MARK, MarkdownExporter, Table};
 use crate::scenario::Tier;
@@ -131,6 +132,8 @@ pub struct Report {
     /// Belief-probe runs: one row per (model, scenario, tier).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub belief: Vec<belief::BeliefRow>,
+    /// Evidence timing: one row per (model, scenario) in the leaderboard scope.
+    pub timing: Vec<timing::TimingRow>,
     pub references: References,
     pub plots: Vec<Plot>,
     pub warnings: Vec<String>,
@@ -249,6 +252,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     let paired = paired::all_pairs(&ordered, &tiers, opts.resamples, opts.seed);
     let pass_k = passk::pass_k_rows(&ordered, &tiers);
     let belief = belief::rows(&ordered);
+    let timing = timing::rows(&ordered, &refs, &tiers);
     let chosen = drill::choose(&data, opts.transcripts_per_cell);
     let transcripts = drill::load(&data, &chosen)?;
     if transcripts.len() < chosen.len() {
@@ -258,6 +262,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         leaderboard: &leaderboard,
         tiers: &tier_rows,
         outcomes: &outcomes,
+        timing: &timing,
         refs: &refs,
         data: &data,
         transcripts: &transcripts,
@@ -290,6 +295,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         paired,
         pass_k,
         belief,
+        timing,
         references: refs,
         plots,
         warnings,
@@ -312,6 +318,9 @@ impl Report {
         }
         if !self.pass_k.is_empty() {
             t.push(passk::pass_k_table(&self.pass_k, &self.tiers));
+        }
+        if !self.timing.is_empty() {
+            t.push(timing::table(&self.timing, &self.tiers));
         }
         if !self.belief.is_empty() {
             t.push(belief::table(&self.belief));

@@ -25,6 +25,13 @@ pub struct ReferenceCell {
     pub success_lo: f64,
     pub success_hi: f64,
     pub decision_correctness: f64,
+    /// Share of the committed episodes that committed before the evidence
+    /// (absent from baseline tables written before evidence timing).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guess_rate: Option<f64>,
+    /// Mean turns from the evidence to the commitment.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub evidence_lag: Option<f64>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -54,6 +61,23 @@ impl References {
         let xs = xs?;
         (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
     }
+
+    /// Guess rate of `policy`, averaged like [`Self::success`].
+    pub(crate) fn guess_rate(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
+        mean_over(tiers, |t| self.cell(policy, scenario, t).and_then(|c| c.guess_rate))
+    }
+
+    /// Evidence-to-commitment lag of `policy`, averaged like [`Self::success`].
+    pub(crate) fn evidence_lag(&self, policy: &str, scenario: ScenarioKind, tiers: &[Tier]) -> Option<f64> {
+        mean_over(tiers, |t| self.cell(policy, scenario, t).and_then(|c| c.evidence_lag))
+    }
+}
+
+/// Mean of a finite value over every tier (None if a tier lacks it).
+fn mean_over(tiers: &[Tier], value: impl Fn(Tier) -> Option<f64>) -> Option<f64> {
+    let xs: Option<Vec<f64>> = tiers.iter().map(|&t| value(t).filter(|x| x.is_finite())).collect();
+    let xs = xs?;
+    (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
 }
 
 /// Read `dir/baselines.csv`. `explicit`: the directory was given with
@@ -101,6 +125,8 @@ pub(crate) fn compute() -> References {
             success_lo: c.success.lo,
             success_hi: c.success.hi,
             decision_correctness: c.decision_correctness.estimate,
+            guess_rate: Some(c.guess_rate.estimate).filter(|x| x.is_finite()),
+            evidence_lag: Some(c.evidence_lag.estimate).filter(|x| x.is_finite()),
         })
         .collect();
     References { source: "computed in-process (built-in scenarios, n = 200; no baselines.csv found)".into(), cells }

@@ -148,6 +148,9 @@ fn refs() -> References {
         success_lo: success,
         success_hi: success,
         decision_correctness: success,
+        // The expert never guesses and commits 2.5 turns after the evidence.
+        guess_rate: (policy == "expert").then_some(0.0),
+        evidence_lag: (policy == "expert").then_some(2.5),
     };
     References {
         source: "test references".into(),
@@ -354,6 +357,84 @@ fn paired_comparison_on_a_constructed_pair() {
         table.contains("seeds for 80% power") && table.trim_end().lines().nth(3).unwrap().ends_with(" 391"),
         "{table}"
     );
+}
+
+/// `line` with the evidence and commitment turns set.
+fn timed_line(
+    model: &str,
+    s: ScenarioKind,
+    seed: u64,
+    outcome: Outcome,
+    evidence: Option<u32>,
+    commit: Option<u32>,
+) -> String {
+    let mut v: Value = serde_json::from_str(&line(model, &hash(model, None), s, 1, seed, 0, outcome)).unwrap();
+    v["evidence_turn"] = json!(evidence);
+    v["commitment_turn"] = json!(commit);
+    v["choice"] = json!(commit.map(|_| "go"));
+    format!("{v}\n")
+}
+
+#[test]
+fn evidence_timing_known_answer_and_overplotted_points_counted() {
+    let root = scratch("report-timing");
+    let ys = ScenarioKind::YieldStandoff;
+    // Seeds 0-2 commit at turn 1 before the evidence at 3 (guesses); seed 3
+    // commits with no evidence at all (a guess); seeds 4-7 commit 0, 1, 2,
+    // 3 turns after the evidence at 2 (lag 1.5); seeds 8-9 never commit
+    // (out of the guess rate). Guess rate 4 / 8 = 0.5. Seeds 0-4 succeed.
+    let timing = |seed: u64| match seed {
+        0..=2 => (Some(3), Some(1)),
+        3 => (None, Some(2)),
+        4..=7 => (Some(2), Some(2 + seed as u32 - 4)),
+        _ => (Some(2), None),
+    };
+    for model in ["a", "b"] {
+        let lines: Vec<String> = (0..10u64)
+            .map(|seed| {
+                let o = if seed < 5 { Outcome::Success } else { Outcome::Timeout };
+                let (e, c) = timing(seed);
+                timed_line(model, ys, seed, o, e, c)
+            })
+            .collect();
+        write_run(&root.join(model), &spec(model), &lines);
+    }
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
+    let r = &built.report.timing;
+    assert_eq!(r.len(), 2);
+    let a = &r[0];
+    assert_eq!((a.episodes, a.committed, a.guesses), (10, 8, 4));
+    assert!((a.guess_rate.estimate - 0.5).abs() < 1e-12, "{a:?}");
+    assert!(a.guess_rate.lo < 0.5 && a.guess_rate.hi > 0.5);
+    assert!((a.evidence_lag - 1.5).abs() < 1e-12);
+    assert!((a.success - 0.5).abs() < 1e-12);
+    assert_eq!((a.expert_guess_rate, a.expert_evidence_lag), (Some(0.0), Some(2.5)));
+    let csv = built.report.render_table("timing", Format::Csv).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert_eq!(
+        header,
+        "model,scenario,episodes,committed,guess_rate,guess_rate_lo,guess_rate_hi,expert_guess_rate,evidence_lag,\
+         expert_evidence_lag,success"
+    );
+    assert!(csv.lines().nth(1).unwrap().starts_with("a,yield_standoff,10,8,0.5"), "{csv}");
+    let plot = |name: &str| built.report.plots.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("{name}"));
+    let timing_svg = &plot("evidence_timing").svg;
+    assert!(timing_svg.contains("a: guess rate 0.50 (4 of 8 committed)"));
+    assert!(timing_svg.contains("a: lag 1.50 turns"));
+    assert!(plot("success_vs_guess_rate").svg.contains("a on yield_standoff: success 0.50, guess rate 0.50"));
+    // The two models coincide on success vs correctness: translucent,
+    // jittered apart, counted; the diagonal's label is off the data.
+    let svg = &plot("success_vs_correctness").svg;
+    assert!(svg.contains("<g fill-opacity=\"0.7\">"));
+    assert!(svg.contains(">\u{d7}2</text>"), "{svg}");
+    assert!(!svg.contains(">\u{d7}3</text>"));
+    assert!(!svg.contains("rotate(-45"));
+    let point = |model: &str| {
+        let at = svg.find(&format!("<title>{model} on yield_standoff")).unwrap();
+        let start = svg[..at].rfind('<').unwrap();
+        svg[start..at].to_string()
+    };
+    assert_ne!(point("a"), point("b"), "coinciding points are jittered apart");
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Success against decision correctness, one point per (model, scenario),
 //! with the diagonal "decisions convert to outcomes". Points below it are
-//! right calls that did not become successes.
+//! right calls that did not become successes. Overplotted points are
+//! translucent, jittered by a few pixels and counted ("×n").
 
 use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_y, text_width};
 use crate::export::f2;
@@ -39,15 +40,9 @@ fn frame(svg: &mut Svg, left: f64, top: f64, size: f64) {
         svg.text(x, top + size + 14.0, &format!("{v}"), 10.0, "middle", "");
     }
     svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
-    let (dx, dy) = (left + 0.62 * size + 8.0, top + size - 0.62 * size + 8.0);
-    svg.text(
-        dx,
-        dy,
-        "success = correctness",
-        10.0,
-        "middle",
-        &format!(" fill=\"#555\" transform=\"rotate(-45 {} {})\"", super::n(dx), super::n(dy)),
-    );
+    // The diagonal's label sits above the plot area, at the diagonal's end,
+    // where no point can be.
+    svg.text(left + size, top - 6.0, "dashed: success = correctness", 10.0, "end", " fill=\"#555\"");
     svg.text(left + size / 2.0, top + size + 32.0, "decision correctness", 11.0, "middle", "");
     svg.text(
         14.0,
@@ -83,6 +78,10 @@ fn points(svg: &mut Svg, input: &PlotInput, models: &[Series], left: f64, top: f
         }
     }
     let by_scenario = shape_is_scenario(models);
+    // Overplotted points stay visible: translucent, jittered a little
+    // (deterministically), and each group of overlapping points counted.
+    let mut placed = Vec::new();
+    svg.open_group("fill-opacity=\"0.7\"");
     for (i, r) in lb.rows.iter().enumerate() {
         for (k, c) in r.scenarios.iter().enumerate() {
             let Some(c) = c else { continue };
@@ -98,10 +97,23 @@ fn points(svg: &mut Svg, input: &PlotInput, models: &[Series], left: f64, top: f
                 f2(c.decision_correctness)
             );
             let shape = if by_scenario { k } else { models[i].shape };
-            svg.marker(shape, x, y, 5.0, models[i].color, INK, Some(&tip));
+            let (jx, jy) = super::jitter(&format!("{}/{}", r.model, c.scenario), JITTER);
+            svg.marker(shape, x + jx, y + jy, 5.0, models[i].color, INK, Some(&tip));
+            placed.push((x, y));
+        }
+    }
+    svg.close_group();
+    for ((x, y), count) in super::overlaps(&placed, OVERLAP_RADIUS) {
+        if count > 1 {
+            svg.text(x + 9.0, y - 7.0, &format!("\u{d7}{count}"), 9.5, "start", " font-weight=\"bold\"");
         }
     }
 }
+
+/// Jitter of a model's point, in pixels, each way.
+const JITTER: f64 = 3.0;
+/// Points closer than this (pixels, before jitter) overplot: about a marker.
+const OVERLAP_RADIUS: f64 = 6.0;
 
 /// Models (colour), scenarios (shape), references (hollow), from (lx, y).
 fn legend(svg: &mut Svg, input: &PlotInput, models: &[Series], lx: f64, mut y: f64) {
@@ -118,6 +130,8 @@ fn legend(svg: &mut Svg, input: &PlotInput, models: &[Series], lx: f64, mut y: f
         y += 16.0;
     }
     y += 8.0;
+    svg.text(lx, y, "\u{d7}n: n points overlap", 11.0, "start", "");
+    y += 20.0;
     for (label, color) in [("expert (hollow)", CEILING_COLOR), ("always_proceed (hollow)", FLOOR_COLOR)] {
         svg.circle(lx + 6.0, y - 4.0, 5.0, "none", color, None);
         svg.text(lx + 17.0, y, label, 11.0, "start", "");

@@ -9,6 +9,7 @@ mod outcomes;
 mod radar;
 mod scenario_success;
 mod tier_ladder;
+mod timing;
 mod trajectory;
 
 use super::drill::Loaded;
@@ -43,6 +44,7 @@ pub struct PlotInput<'a> {
     pub leaderboard: &'a Leaderboard,
     pub tiers: &'a [TierRow],
     pub outcomes: &'a [OutcomeRow],
+    pub timing: &'a [super::timing::TimingRow],
     pub refs: &'a References,
     pub data: &'a Dataset,
     pub transcripts: &'a [Loaded],
@@ -144,6 +146,7 @@ pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     plots.push(correctness::plot(input));
     plots.push(tier_ladder::plot(input));
     plots.push(outcomes::plot(input));
+    plots.extend(timing::plots(input));
     plots.extend(radar::plot(input));
     plots.extend(trajectory::plots(input));
     plots.extend(belief::plots(input));
@@ -159,6 +162,29 @@ pub(crate) const COLLISION_COLOR: &str = "#e15759";
 pub(crate) const TIMEOUT_COLOR: &str = "#9e9e9e";
 pub(crate) const GRID: &str = "#e3e3e3";
 pub(crate) const INK: &str = "#222";
+
+/// A small deterministic offset in pixels (each coordinate in
+/// [-`amount`, `amount`]) from `key`: overplotted points separate, and the
+/// same report draws them at the same places every time.
+pub(crate) fn jitter(key: &str, amount: f64) -> (f64, f64) {
+    let h = crate::hash::fnv1a64(key);
+    let unit = |bits: u64| (bits & 0xffff) as f64 / f64::from(0xffff_u32) * 2.0 - 1.0;
+    (unit(h) * amount, unit(h >> 16) * amount)
+}
+
+/// Overplotted groups: points (in pixels, before jitter) whose distance to
+/// a group's first point is within `radius` join that group. Returns each
+/// group's first point and its size, in order of first appearance.
+pub(crate) fn overlaps(points: &[(f64, f64)], radius: f64) -> Vec<((f64, f64), usize)> {
+    let mut groups: Vec<((f64, f64), usize)> = Vec::new();
+    for &(x, y) in points {
+        match groups.iter_mut().find(|((gx, gy), _)| (gx - x).hypot(gy - y) <= radius) {
+            Some(g) => g.1 += 1,
+            None => groups.push(((x, y), 1)),
+        }
+    }
+    groups
+}
 
 /// A number for an SVG attribute: one decimal, no "-0.0".
 pub(crate) fn n(x: f64) -> String {
@@ -268,6 +294,15 @@ impl Svg {
                 self.close_with_tip(tip, "polygon");
             }
         }
+    }
+
+    /// Open a group whose attributes (e.g. `fill-opacity`) its children inherit.
+    pub(crate) fn open_group(&mut self, attrs: &str) {
+        let _ = write!(self.body, "<g {attrs}>");
+    }
+
+    pub(crate) fn close_group(&mut self) {
+        self.body.push_str("</g>");
     }
 
     fn close_with_tip(&mut self, tip: Option<&str>, element: &str) {
@@ -394,6 +429,16 @@ fn tick(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn overlaps_count_coincident_points_and_jitter_is_stable_and_bounded() {
+        let groups = overlaps(&[(10.0, 10.0), (12.0, 11.0), (50.0, 50.0), (10.0, 10.0)], 5.0);
+        assert_eq!(groups, vec![((10.0, 10.0), 3), ((50.0, 50.0), 1)]);
+        let (a, b) = (jitter("m/yield_standoff", 3.0), jitter("m/merge", 3.0));
+        assert_eq!(a, jitter("m/yield_standoff", 3.0));
+        assert_ne!(a, b);
+        assert!([a.0, a.1, b.0, b.1].iter().all(|v| v.abs() <= 3.0));
+    }
 
     #[test]
     fn svg_text_is_escaped_and_numbers_compact() {

@@ -1,0 +1,106 @@
+//! Evidence timing per (model, scenario) over the leaderboard scope: the
+//! guess rate (share of the episodes with a commitment whose commitment
+//! turn came before the evidence turn, or had no evidence at all) and the
+//! evidence-to-commitment lag in turns (mean over the episodes that
+//! committed at or after the evidence), with the expert's as reference
+//! (from the baseline table, averaged over the scope's tiers like its
+//! success). Success beside them shows which models win by luck.
+
+use super::load::ModelData;
+use super::reference::{CEILING, References};
+use crate::eval::summary::{evidence_lag, guess_rate};
+use crate::export::{Cell, Column, Style, Table};
+use crate::scenario::{ScenarioKind, Tier};
+use crate::stats::{Interval, wilson_ci};
+use serde::Serialize;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct TimingRow {
+    pub model: String,
+    pub scenario: ScenarioKind,
+    /// Episodes in scope.
+    pub episodes: usize,
+    /// Episodes with a commitment (the guess rate's denominator).
+    pub committed: usize,
+    /// Committed before the evidence (or without any).
+    pub guesses: usize,
+    /// Wilson 95% interval over the committed episodes; NaN when none.
+    pub guess_rate: Interval,
+    /// Mean turns from evidence to commitment; NaN when no episode
+    /// committed at or after the evidence.
+    pub evidence_lag: f64,
+    /// Share of the episodes in scope that succeeded.
+    pub success: f64,
+    pub expert_guess_rate: Option<f64>,
+    pub expert_evidence_lag: Option<f64>,
+}
+
+/// One row per (model, scenario) with an episode in `tiers`, models in the
+/// given order, scenarios in their canonical order.
+pub(crate) fn rows(models: &[&ModelData], refs: &References, tiers: &[Tier]) -> Vec<TimingRow> {
+    let mut out = Vec::new();
+    for m in models {
+        for scenario in ScenarioKind::ALL {
+            let eps: Vec<_> = m.episodes.iter().filter(|e| e.scenario == scenario && tiers.contains(&e.tier)).collect();
+            if eps.is_empty() {
+                continue;
+            }
+            let guessed: Vec<bool> = eps.iter().filter_map(|e| e.timing.guessed()).collect();
+            let guesses = guessed.iter().filter(|g| **g).count();
+            let mut rate = wilson_ci(guesses as f64, guessed.len() as f64);
+            rate.estimate = guess_rate(eps.iter().map(|e| e.timing));
+            out.push(TimingRow {
+                model: m.label.clone(),
+                scenario,
+                episodes: eps.len(),
+                committed: guessed.len(),
+                guesses,
+                guess_rate: rate,
+                evidence_lag: evidence_lag(eps.iter().map(|e| e.timing)),
+                success: eps.iter().filter(|e| e.success()).count() as f64 / eps.len() as f64,
+                expert_guess_rate: refs.guess_rate(CEILING, scenario, tiers),
+                expert_evidence_lag: refs.evidence_lag(CEILING, scenario, tiers),
+            });
+        }
+    }
+    out
+}
+
+fn finite(x: f64) -> Cell {
+    if x.is_finite() { Cell::Float(x) } else { Cell::Missing }
+}
+
+pub(crate) fn table(rows: &[TimingRow], tiers: &[Tier]) -> Table {
+    let columns = vec![
+        Column::new("model", "model"),
+        Column::new("scenario", "scenario").style(Style::Code),
+        Column::new("episodes", "episodes"),
+        Column::new("committed", "committed"),
+        Column::new("guess rate", "guess_rate").style(Style::Interval),
+        Column::new("expert guess", "expert_guess_rate"),
+        Column::new("lag (turns)", "evidence_lag"),
+        Column::new("expert lag", "expert_evidence_lag"),
+        Column::new("success", "success"),
+    ];
+    let mut t = Table::new("timing", format!("Evidence timing ({})", super::tables::tiers_label(tiers)), columns);
+    for r in rows {
+        t.push(vec![
+            Cell::text(r.model.clone()),
+            Cell::text(r.scenario.to_string()),
+            Cell::Int(r.episodes as u64),
+            Cell::Int(r.committed as u64),
+            if r.committed == 0 { Cell::Missing } else { Cell::Interval(r.guess_rate) },
+            Cell::opt(r.expert_guess_rate),
+            finite(r.evidence_lag),
+            Cell::opt(r.expert_evidence_lag),
+            Cell::Float(r.success),
+        ]);
+    }
+    t.note(
+        "Guess rate: share of the episodes with a commitment whose commitment \
+         turn came before the evidence turn, or that had no evidence; 95% Wilson interval. Lag: mean turns from the \
+         evidence to the commitment over the others. Expert: the baseline table's expert, averaged over the tiers. \
+         A high success with a high guess rate is luck.",
+    );
+    t
+}
