@@ -132,7 +132,9 @@ pub struct Report {
     /// Belief-probe runs: one row per (model, scenario, tier).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub belief: Vec<belief::BeliefRow>,
-    /// Evidence timing: one row per (model, scenario) in the leaderboard scope.
+    /// Evidence timing: one row per (model, scenario) in the leaderboard
+    /// scope (none for runs written before evidence timing was recorded).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub timing: Vec<timing::TimingRow>,
     pub references: References,
     pub plots: Vec<Plot>,

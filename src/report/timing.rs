@@ -35,14 +35,17 @@ pub struct TimingRow {
     pub expert_evidence_lag: Option<f64>,
 }
 
-/// One row per (model, scenario) with an episode in `tiers`, models in the
+/// One row per (model, scenario) with a timed episode in `tiers`, models in the
 /// given order, scenarios in their canonical order.
 pub(crate) fn rows(models: &[&ModelData], refs: &References, tiers: &[Tier]) -> Vec<TimingRow> {
     let mut out = Vec::new();
     for m in models {
         for scenario in ScenarioKind::ALL {
             let eps: Vec<_> = m.episodes.iter().filter(|e| e.scenario == scenario && tiers.contains(&e.tier)).collect();
-            if eps.is_empty() {
+            // Runs written before evidence timing was recorded (schema < 2)
+            // have neither turn on any line: no row rather than a row of
+            // zeros.
+            if eps.iter().all(|e| e.timing.evidence_turn.is_none() && e.timing.commitment_turn.is_none()) {
                 continue;
             }
             let guessed: Vec<bool> = eps.iter().filter_map(|e| e.timing.guessed()).collect();
