@@ -42,7 +42,7 @@ fn frame(svg: &mut Svg, left: f64, top: f64, size: f64) {
     svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
     // The diagonal's label sits above the plot area, at the diagonal's end,
     // where no point can be.
-    svg.text(left + size, top - 6.0, "dashed: success = correctness", 10.0, "end", " fill=\"#555\"");
+    svg.text(left + size - 14.0, top - 8.0, "dashed: success = correctness", 10.0, "end", " fill=\"#555\"");
     svg.text(left + size / 2.0, top + size + 32.0, "decision correctness", 11.0, "middle", "");
     svg.text(
         14.0,
