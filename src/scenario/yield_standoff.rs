@@ -26,7 +26,7 @@
 //!   committed car re-accelerate into the zone (the ego's motion shows it
 //!   will enter within the commit horizon); hanging back makes it roll
 //!   through at its floor speed and then drive on; a yielder stops and
-//!   behaves as on tier 1.
+//!   waits as on tier 1, with more patience (its stop is the first sign).
 //!
 //! Frame: the ego drives along +y at x = 0, the crossing cars along +x at
 //! y = 0; positions are box centres, the crossing centre is the origin.
