@@ -307,47 +307,49 @@ fn racing_and_outwaiting_lose() {
     }
 }
 
-/// The search finds a blind win that a scenario change re-opens: a waiting
-/// pedestrian with endless patience can be outwaited, and the blind-play
-/// check then fails; on the built-in scenario it passes.
-#[test]
-fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
+/// The blind-play check passes on the built-in `kind`, and fails once the
+/// planted `edits` to its scenario file re-open an outwaiting win.
+fn assert_blind_search_catches(kind: ScenarioKind, builtin: &str, edits: &[(&str, &str)]) {
     let check = |set: &ScenarioSet| {
-        let cells = grid(set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 100);
-        let blind = validate::search_blind(set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 0..100, 20_000);
+        let cells = grid(set, &[kind], &[Tier::T1], 100);
+        let blind = validate::search_blind(set, &[kind], &[Tier::T1], 0..100, 20_000);
         validate::check_blind_play_loses(&cells, &blind)
     };
     let honest = check(&ScenarioSet::default());
     assert!(honest.pass, "{}", honest.figure);
-    let text = include_str!("../../scenarios/pedestrian_feint.toml")
-        .replace("turn_budget = 18", "turn_budget = 40")
-        .replace("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative");
-    assert!(text.contains("[19.0, 20.0]"), "the planted change did not apply");
+    let mut text = builtin.to_string();
+    for (from, to) in edits {
+        assert!(text.contains(from), "the planted change '{from}' did not apply");
+        text = text.replace(from, to);
+    }
     let mut set = ScenarioSet::default();
     set.replace(ScenarioConfig::from_toml("patient.toml", &text).unwrap());
     let planted = check(&set);
     assert!(!planted.pass, "{}", planted.figure);
 }
 
-/// The same for the intersection: a yielder that never takes its turn, with
-/// a budget long enough to wait, can be outwaited.
+/// A waiting pedestrian with endless patience (and a budget long enough to
+/// wait) can be outwaited, and the search finds it.
+#[test]
+fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
+    assert_blind_search_catches(
+        ScenarioKind::PedestrianFeint,
+        include_str!("../../scenarios/pedestrian_feint.toml"),
+        &[
+            ("turn_budget = 18", "turn_budget = 40"),
+            ("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative"),
+        ],
+    );
+}
+
+/// The same for the intersection: a yielder that never takes its turn.
 #[test]
 fn blind_search_catches_a_yielder_who_never_gives_up() {
-    let check = |set: &ScenarioSet| {
-        let cells = grid(set, &[ScenarioKind::YieldStandoff], &[Tier::T1], 100);
-        let blind = validate::search_blind(set, &[ScenarioKind::YieldStandoff], &[Tier::T1], 0..100, 20_000);
-        validate::check_blind_play_loses(&cells, &blind)
-    };
-    let honest = check(&ScenarioSet::default());
-    assert!(honest.pass, "{}", honest.figure);
-    let text = include_str!("../../scenarios/yield_standoff.toml")
-        .replace("turn_budget = 22", "turn_budget = 40")
-        .replace("patience_s = [0.2, 0.5]", "patience_s = [25.0, 30.0]");
-    assert!(text.contains("[25.0, 30.0]"), "the planted change did not apply");
-    let mut set = ScenarioSet::default();
-    set.replace(ScenarioConfig::from_toml("patient.toml", &text).unwrap());
-    let planted = check(&set);
-    assert!(!planted.pass, "{}", planted.figure);
+    assert_blind_search_catches(
+        ScenarioKind::YieldStandoff,
+        include_str!("../../scenarios/yield_standoff.toml"),
+        &[("turn_budget = 22", "turn_budget = 40"), ("patience_s = [0.2, 0.5]", "patience_s = [25.0, 30.0]")],
+    );
 }
 
 // --- properties ---------------------------------------------------------------
