@@ -5,6 +5,7 @@
 
 use super::{parse_list, usage};
 use crate::export::Format;
+use crate::report::pick::BadPick;
 use crate::report::{self, MIN_RESAMPLES, ReportError, ReportOptions};
 use crate::scenario::Tier;
 use std::io::Write;
@@ -49,6 +50,12 @@ pub struct ReportArgs {
     /// missing) on the leaderboard too; they stay marked.
     #[arg(long)]
     pub include_incomplete: bool,
+    /// An episode to draw as a trajectory figure, with a maneuver timeline
+    /// of every model on its scenario, tier and seed; repeatable. MODEL is
+    /// the report's model label; ROLLOUT defaults to the model's lowest.
+    /// Without it, one episode per model and scenario is chosen.
+    #[arg(long = "episode", value_name = "MODEL:SCENARIO:TIER:SEED[:ROLLOUT]")]
+    pub episodes: Vec<String>,
     /// Print nothing but errors.
     #[arg(long, short = 'q')]
     pub quiet: bool,
@@ -66,6 +73,11 @@ impl ReportArgs {
             Some(t) => Some(parse_list(t, &Tier::ALL, "--tiers")?),
             None => None,
         };
+        let episodes = self
+            .episodes
+            .iter()
+            .map(|e| e.parse().map_err(|e: BadPick| usage(e.to_string())))
+            .collect::<Result<_, _>>()?;
         Ok(ReportOptions {
             dirs: self.runs.clone(),
             baselines: self.baselines.clone().unwrap_or_else(|| PathBuf::from("results/baselines")),
@@ -75,6 +87,7 @@ impl ReportArgs {
             seed: self.seed,
             transcripts_per_cell: self.transcripts,
             include_incomplete: self.include_incomplete,
+            episodes,
         })
     }
 

@@ -164,6 +164,51 @@ struct TurnOut {
     ego: Option<[f64; 3]>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     o: Vec<[f64; 3]>,
+    /// Each other road user's position in its scenario's lateral frame
+    /// (the pedestrian from the near kerb, as the scene text gives it);
+    /// `null` for one without. Absent when none has one.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    f: Vec<Option<f64>>,
+}
+
+/// How a scenario's road users are named and placed (from
+/// [`ScenarioKind::plan_axes`]), indexed like `scenarios`.
+#[derive(Debug, Serialize)]
+struct SceneOut {
+    /// The other road users' roles, in the order of `o`.
+    roles: Vec<&'static str>,
+    /// Their lateral frames, `null` for one without.
+    lateral: Vec<Option<FrameOut>>,
+}
+
+#[derive(Debug, Serialize)]
+struct FrameOut {
+    /// What the value measures ("from the near kerb").
+    measured: &'static str,
+    /// Value = plan y + offset.
+    offset: f64,
+    /// The frame's lines: [value, label].
+    marks: [(f64, &'static str); 2],
+    /// In the ego's path: [lo, hi].
+    path: [f64; 2],
+}
+
+fn scene_out(kind: ScenarioKind) -> SceneOut {
+    let users = kind.plan_axes().road_users;
+    SceneOut {
+        roles: users.iter().map(|u| u.role).collect(),
+        lateral: users
+            .iter()
+            .map(|u| {
+                u.lateral.map(|f| FrameOut {
+                    measured: f.measured,
+                    offset: f.plan_offset,
+                    marks: f.marks,
+                    path: [round2(f.in_path.0), round2(f.in_path.1)],
+                })
+            })
+            .collect(),
+    }
 }
 
 #[derive(Debug, Serialize)]
@@ -187,6 +232,7 @@ type EpisodeRow = (u16, u8, u8, u64, u32, u8, u8, f64, f64, u32, u32, u64, u64, 
 pub struct DrillData {
     models: Vec<String>,
     scenarios: Vec<&'static str>,
+    scenes: Vec<SceneOut>,
     outcomes: [&'static str; 3],
     dispositions: Vec<&'static str>,
     runs: Vec<String>,
@@ -244,6 +290,14 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
             continue;
         }
         let traj = l.record.trajectory.as_deref().unwrap_or(&[]);
+        let users = l.record.scenario.plan_axes().road_users;
+        let in_frames = |agents: &[crate::scenario::world::PlanPoint]| -> Vec<Option<f64>> {
+            if users.iter().all(|u| u.lateral.is_none()) {
+                return Vec::new();
+            }
+            let others = agents.iter().skip(1).enumerate();
+            others.map(|(k, a)| users.get(k).and_then(|u| u.lateral).map(|f| round2(f.of(a)))).collect()
+        };
         let turns: Vec<TurnOut> = l
             .record
             .turns
@@ -268,6 +322,7 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
                     o: point
                         .map(|p| p.agents.iter().skip(1).map(|a| [round2(a.x), round2(a.y), round2(a.v)]).collect())
                         .unwrap_or_default(),
+                    f: point.map(|p| in_frames(&p.agents)).unwrap_or_default(),
                 }
             })
             .collect();
@@ -302,6 +357,7 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
     DrillData {
         models: data.models.iter().map(|m| m.label.clone()).collect(),
         scenarios: ScenarioKind::ALL.iter().map(|s| s.name()).collect(),
+        scenes: ScenarioKind::ALL.into_iter().map(scene_out).collect(),
         outcomes: ["success", "collision", "timeout"],
         dispositions: DISPOSITIONS.to_vec(),
         runs: data.runs.iter().map(|r| r.rollouts_path().display().to_string()).collect(),

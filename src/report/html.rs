@@ -104,9 +104,19 @@ const JS: &str = r##"
     }
     return s;
   }
-  // The plan view of the embedded positions: the ego solid, the others dashed, equal aspect.
-  // Built as markup (numbers only), so the page names no namespace URL.
-  function drawTrajectory(T, box) {
+  function esc(x) { return String(x).replace(/&/g, '&amp;').replace(/</g, '&lt;').replace(/>/g, '&gt;').replace(/"/g, '&quot;'); }
+  function svgText(x, y, text, color, anchor) {
+    return '<text x="' + f2(x) + '" y="' + f2(y) + '" font-size="10" fill="' + (color || '#555') + '"' +
+      (anchor ? ' text-anchor="' + anchor + '"' : '') + '>' + esc(text) + '</text>';
+  }
+  function line(pts, color, dash) {
+    return '<polyline fill="none" stroke-width="2" stroke="' + color + '"' + (dash ? ' stroke-dasharray="5 3"' : '') +
+      ' points="' + pts.join(' ') + '"></polyline>';
+  }
+  function hline(x0, x1, y) { return '<line x1="' + f2(x0) + '" x2="' + f2(x1) + '" y1="' + f2(y) + '" y2="' + f2(y) + '" stroke="#9e9e9e" stroke-dasharray="5 2"></line>'; }
+  // The plan view of the embedded positions: the ego solid, the others dashed, equal aspect, and the
+  // lines of a lateral frame (the kerbs). Built as markup (numbers only), so the page names no namespace URL.
+  function drawTrajectory(T, box, scene) {
     var ego = [], others = [];
     T.turns.forEach(function (t) {
       if (t.ego) ego.push(t.ego);
@@ -114,20 +124,52 @@ const JS: &str = r##"
     });
     var all = ego.concat.apply(ego, others);
     if (all.length < 2) { box.appendChild(el('p', 'No positions recorded for this episode.', 'muted')); return; }
-    var xs = all.map(function (p) { return p[0]; }), ys = all.map(function (p) { return p[1]; });
+    var marks = [];
+    scene.lateral.forEach(function (f) { if (f) f.marks.forEach(function (m) { marks.push([m[0] - f.offset, m[1]]); }); });
+    var xs = all.map(function (p) { return p[0]; }), ys = all.map(function (p) { return p[1]; }).concat(marks.map(function (m) { return m[0]; }));
     var x0 = Math.min.apply(null, xs), x1 = Math.max.apply(null, xs), y0 = Math.min.apply(null, ys), y1 = Math.max.apply(null, ys);
     var span = Math.max(x1 - x0, y1 - y0, 10) * 1.1, cx = (x0 + x1) / 2, cy = (y0 + y1) / 2, W = 260;
-    function pt(p) { return f2((p[0] - cx) / span * W + W / 2) + ',' + f2(W / 2 - (p[1] - cy) / span * W); }
-    function line(ps, color, dash) {
-      return '<polyline fill="none" stroke-width="2" stroke="' + color + '"' + (dash ? ' stroke-dasharray="5 3"' : '') +
-        ' points="' + ps.map(pt).join(' ') + '"></polyline>';
-    }
+    function px(x) { return (x - cx) / span * W + W / 2; }
+    function py(y) { return W / 2 - (y - cy) / span * W; }
+    function pt(p) { return f2(px(p[0])) + ',' + f2(py(p[1])); }
     var svg = '<svg viewBox="0 0 ' + W + ' ' + W + '" width="' + W + '" height="' + W + '" role="img">' +
       '<rect width="' + W + '" height="' + W + '" fill="#fafafa"></rect>';
-    others.forEach(function (ps, k) { svg += line(ps, k ? '#7f7f7f' : '#c0704a', true); });
-    svg += line(ego, '#6a3d9a', false) + '</svg>';
+    // The lower line's label below it, the other's above: the road (and the ego's path) lies between.
+    var lowest = Math.min.apply(null, marks.map(function (m) { return m[0]; }));
+    marks.forEach(function (m) { svg += hline(0, W, py(m[0])) + svgText(4, py(m[0]) + (m[0] === lowest ? 11 : -3), m[1]); });
+    others.forEach(function (ps, k) {
+      svg += line(ps.map(pt), k ? '#7f7f7f' : '#c0704a', true);
+      svg += svgText(px(ps[0][0]) + 6, py(ps[0][1]) - 6, scene.roles[k] || 'road user ' + (k + 1), k ? '#7f7f7f' : '#c0704a');
+    });
+    svg += line(ego.map(pt), '#6a3d9a', false) + '</svg>';
     box.innerHTML = svg;
-    box.appendChild(el('div', 'Plan view at the decision turns: ego solid, other road user(s) dashed (m, equal aspect).', 'muted'));
+    scene.lateral.forEach(function (f, k) { if (f) box.innerHTML += lateralPanel(T, f, k, scene.roles[k]); });
+    box.appendChild(el('div', 'Plan view at the decision turns: ego solid, ' + (scene.roles.join(', ') || 'other road users') +
+      ' dashed (m, equal aspect)' + (scene.lateral.some(function (f) { return f; }) ? '; beside it, the ' +
+      scene.roles.filter(function (r, k) { return scene.lateral[k]; }).join(', ') + ' in the scene text\'s lateral frame.' : '.'), 'muted'));
+  }
+  // A road user's position over the turns in its lateral frame (the pedestrian from the near kerb, the
+  // numbers the scene text gave), with the frame's lines and the band where it is in the ego's path.
+  function lateralPanel(T, f, k, role) {
+    var pts = T.turns.filter(function (t) { return t.f && t.f[k] !== null && t.f[k] !== undefined; })
+      .map(function (t) { return [t.time !== undefined ? t.time : (t.t - 1) * 0.5, t.f[k]]; });
+    var W = 380, H = 260, L = 40, R = 300, top = 24, bot = 230;
+    var vs = pts.map(function (p) { return p[1]; }).concat([f.marks[0][0] - 1, f.marks[1][0] + 0.5]);
+    var lo = Math.min.apply(null, vs), hi = Math.max.apply(null, vs);
+    var tEnd = Math.max.apply(null, pts.map(function (p) { return p[0]; }).concat([0.5]));
+    function sx(t) { return L + t / tEnd * (R - L); }
+    function sy(v) { return bot - (v - lo) / (hi - lo) * (bot - top); }
+    var svg = '<svg viewBox="0 0 ' + W + ' ' + H + '" width="' + W + '" height="' + H + '" role="img" class="lateral" data-role="' + esc(role) + '">' +
+      '<rect x="' + L + '" y="' + top + '" width="' + (R - L) + '" height="' + (bot - top) + '" fill="#fafafa"></rect>' +
+      '<rect x="' + L + '" y="' + f2(sy(f.path[1])) + '" width="' + (R - L) + '" height="' + f2(sy(f.path[0]) - sy(f.path[1])) +
+      '" fill="#c0704a" fill-opacity="0.12"></rect>' +
+      svgText(L + 4, sy(f.path[1]) + 11, 'in the ego\'s path (' + f.path[0].toFixed(1) + '\u2013' + f.path[1].toFixed(1) + ' m)', '#c0704a');
+    f.marks.forEach(function (m) { svg += hline(L, R, sy(m[0])) + svgText(R + 4, sy(m[0]) + 3.5, m[1] + ' (' + m[0] + ')'); });
+    for (var v = Math.ceil(lo / 2) * 2; v <= hi; v += 2) svg += svgText(L - 4, sy(v) + 3.5, v, '#555', 'end');
+    svg += line(pts.map(function (p) { return f2(sx(p[0])) + ',' + f2(sy(p[1])); }), '#c0704a', true);
+    svg += svgText(L, 14, role + ', ' + f.measured + ' (m), as the scene text gives it', '#222');
+    svg += svgText(L, bot + 16, '0', '#555', 'middle') + svgText(R, bot + 16, f2(tEnd) + ' s', '#555', 'middle');
+    return svg + '</svg>';
   }
   function render() {
     var e = current(), sum = $('dd-summary'), body = $('dd-turns'), strip = $('dd-strip'), note = $('dd-note'), traj = $('dd-traj');
@@ -153,7 +195,8 @@ const JS: &str = r##"
     }
     note.textContent = 'Full record: ' + src + '.';
     var T = D.transcripts[e[13]];
-    drawTrajectory(T, traj);
+    var scene = D.scenes[e[1]];
+    drawTrajectory(T, traj, scene);
     T.turns.forEach(function (t) {
       var d = el('div');
       d.style.background = MCOL[t.m] || '#999';
@@ -191,7 +234,13 @@ const JS: &str = r##"
       tr.appendChild(ac);
       var dt = (t.time !== undefined && prevTime !== null) ? t.time - prevTime : 0;
       var ot = el('td');
-      (t.o || []).forEach(function (p, k) { ot.appendChild(el('div', motion(p, prev && prev.o ? prev.o[k] : null, dt))); });
+      (t.o || []).forEach(function (p, k) {
+        var f = scene.lateral[k], role = (scene.roles[k] || 'road user ' + (k + 1)) + ': ';
+        var before = prev && prev.o ? prev.o[k] : null;
+        // A road user with a lateral frame is given in it, as the scene text gives it (its y is the plan view's).
+        if (f && t.f && t.f[k] !== null) ot.appendChild(el('div', role + f2(t.f[k]) + ' m ' + f.measured + ', ' + motion(p, before, dt).split(' m, ').slice(1).join(' m, ')));
+        else ot.appendChild(el('div', role + motion(p, before, dt)));
+      });
       if (t.ego) ot.appendChild(el('div', 'ego: ' + motion(t.ego, prev ? prev.ego : null, dt), 'muted'));
       tr.appendChild(ot);
       tr.appendChild(el('td', t.k + ' tok, ' + t.l + ' ms' + (t.n > 1 ? ', ' + t.n + ' attempts' : '')));
@@ -266,7 +315,7 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     let table = |name: &str| tables.iter().find(|t| t.name == name).map(|t| HtmlExporter.render(t)).unwrap_or_default();
     let _ = write!(s, "<h2 id=\"leaderboard\">Leaderboard</h2>{}", table("leaderboard"));
     s.push_str("<h2 id=\"figures\">Figures</h2>");
-    for p in report.plots.iter().filter(|p| !p.name.starts_with("trajectory_")) {
+    for p in report.plots.iter().filter(|p| !is_episode_figure(p)) {
         figure(&mut s, p);
     }
     let _ = write!(s, "<h2 id=\"tiers\">Per tier</h2>{}", table("tiers"));
@@ -279,7 +328,7 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
         let _ = write!(s, "<h2 id=\"passk\">pass^k</h2>{}", table("pass_k"));
     }
     s.push_str("<h2 id=\"trajectories\">Trajectories</h2>");
-    let trajectories: Vec<_> = report.plots.iter().filter(|p| p.name.starts_with("trajectory_")).collect();
+    let trajectories: Vec<_> = report.plots.iter().filter(|p| is_episode_figure(p)).collect();
     if trajectories.is_empty() {
         s.push_str("<p class=\"note\">No episode with a recorded trajectory (runs made with --no-trajectories).</p>");
     }
@@ -325,6 +374,12 @@ fn drill_section(s: &mut String, drill: &DrillData) {
         },
         super::drill::MAX_TEXT
     );
+}
+
+/// Figures of single episodes (trajectories, maneuver timelines): they go
+/// in the Trajectories section.
+fn is_episode_figure(p: &super::plots::Plot) -> bool {
+    p.name.starts_with("trajectory_") || p.name.starts_with("timeline_")
 }
 
 fn figure(s: &mut String, p: &super::plots::Plot) {

@@ -6,7 +6,8 @@
 //! leaderboard, per-tier, outcome and cost tables; [`paired`] the pairwise
 //! comparisons; [`passk`] pass^k; [`timing`] guess rate and evidence lag; [`reference`] the expert ceiling and
 //! `always_proceed` floor; [`boot`] the report's bootstraps; [`drill`] the
-//! drill-down data; [`plots`] one file per kind of figure; [`html`] the page.
+//! drill-down data; [`pick`] the episodes the trajectory figures and
+//! maneuver timelines draw; [`plots`] one file per kind of figure; [`html`] the page.
 //! Tables are [`crate::export`] tables.
 
 pub mod belief;
@@ -16,6 +17,7 @@ pub mod html;
 pub mod load;
 pub mod paired;
 pub mod passk;
+pub mod pick;
 pub mod plots;
 pub mod reference;
 pub mod tables;
@@ -56,6 +58,8 @@ pub enum ReportError {
     Empty(String),
     #[error("{path}: {source}")]
     Io { path: String, source: std::io::Error },
+    #[error(transparent)]
+    Pick(#[from] pick::BadPick),
 }
 
 impl ReportError {
@@ -82,6 +86,9 @@ pub struct ReportOptions {
     pub transcripts_per_cell: usize,
     /// Rank incomplete models too (they are still marked).
     pub include_incomplete: bool,
+    /// `--episode`: the episodes of the trajectory figures (empty: the
+    /// default choice, see [`pick`]).
+    pub episodes: Vec<pick::EpisodePick>,
 }
 
 impl Default for ReportOptions {
@@ -95,6 +102,7 @@ impl Default for ReportOptions {
             seed: 0,
             transcripts_per_cell: 3,
             include_incomplete: false,
+            episodes: Vec::new(),
         }
     }
 }
@@ -255,11 +263,21 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     let pass_k = passk::pass_k_rows(&ordered, &tiers);
     let belief = belief::rows(&ordered);
     let timing = timing::rows(&ordered, &refs, &tiers);
-    let chosen = drill::choose(&data, opts.transcripts_per_cell);
+    // Named episodes first, so the drill-down carries their transcripts too.
+    let picked = pick::resolve(&opts.episodes, &data)?;
+    let mut chosen = drill::choose(&data, opts.transcripts_per_cell);
+    chosen.retain(|c| !picked.contains(c));
+    chosen.splice(0..0, picked.iter().copied());
     let transcripts = drill::load(&data, &chosen)?;
     if transcripts.len() < chosen.len() {
         warnings.push(format!("{} transcript line(s) could not be read in full", chosen.len() - transcripts.len()));
     }
+    let trajectories: Vec<drill::Loaded> = if picked.is_empty() {
+        pick::default_trajectories(&leaderboard, &data, &transcripts)
+    } else {
+        picked.iter().filter_map(|&p| transcripts.iter().find(|l| (l.model, l.episode) == p).cloned()).collect()
+    };
+    let timelines = pick::timelines(&data, &trajectories, &transcripts)?;
     let plots = plots::all(&plots::PlotInput {
         leaderboard: &leaderboard,
         tiers: &tier_rows,
@@ -268,6 +286,8 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         refs: &refs,
         data: &data,
         transcripts: &transcripts,
+        trajectories: &trajectories,
+        timelines: &timelines,
     });
     let drill = drill::build(&data, &transcripts, opts.transcripts_per_cell);
     let models = ordered

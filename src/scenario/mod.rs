@@ -48,31 +48,35 @@ impl ScenarioKind {
         }
     }
 
-    /// How the plan view of this scenario is read (for trajectory plots):
-    /// which coordinate is each road user's progress along its path, what
-    /// the other road user is called, and where position 0 is.
+    /// How the plan view of this scenario is read (for trajectory plots
+    /// and the drill-down): which coordinate is each road user's progress
+    /// along its path, where position 0 is, and the other road users'
+    /// roles and frames.
     pub fn plan_axes(self) -> PlanAxes {
         match self {
             ScenarioKind::YieldStandoff => PlanAxes {
                 ego_along_y: true,
                 others_along_y: false,
-                other_name: "other car",
                 zero_label: "crossing centre",
-                shared_axis: true,
+                road_users: &[
+                    RoadUser { role: "other car", lateral: None },
+                    RoadUser { role: "follower", lateral: None },
+                ],
             },
             ScenarioKind::PedestrianFeint => PlanAxes {
                 ego_along_y: false,
                 others_along_y: true,
-                other_name: "pedestrian",
                 zero_label: "crosswalk",
-                shared_axis: false,
+                road_users: &[RoadUser { role: "pedestrian", lateral: Some(pedestrian_feint::KERB_FRAME) }],
             },
             ScenarioKind::ContestedMerge => PlanAxes {
                 ego_along_y: false,
                 others_along_y: false,
-                other_name: "lane car",
                 zero_label: "taper start",
-                shared_axis: true,
+                road_users: &[
+                    RoadUser { role: "lane car", lateral: None },
+                    RoadUser { role: "follower", lateral: None },
+                ],
             },
         }
     }
@@ -108,18 +112,17 @@ impl fmt::Display for ScenarioKind {
 }
 
 /// The plan-view reading of a scenario (see [`ScenarioKind::plan_axes`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanAxes {
     /// The ego progresses along y (else x).
     pub ego_along_y: bool,
     /// The other road users progress along y (else x).
     pub others_along_y: bool,
-    pub other_name: &'static str,
     /// What position 0 along the paths is.
     pub zero_label: &'static str,
-    /// Whether the ego's and the others' progress share one axis (the
-    /// pedestrian's lateral position does not).
-    pub shared_axis: bool,
+    /// The road users other than the ego, in the order of the plan-view
+    /// points after the ego's (and of the scene text's tracks).
+    pub road_users: &'static [RoadUser],
 }
 
 impl PlanAxes {
@@ -127,6 +130,56 @@ impl PlanAxes {
     pub fn along(&self, p: &world::PlanPoint, ego: bool) -> f64 {
         let along_y = if ego { self.ego_along_y } else { self.others_along_y };
         if along_y { p.y } else { p.x }
+    }
+
+    /// The role of the `k`-th road user other than the ego ("road user
+    /// k+1" beyond the scenario's list, which a well-formed record never
+    /// reaches).
+    pub fn role(&self, k: usize) -> std::borrow::Cow<'static, str> {
+        match self.road_users.get(k) {
+            Some(u) => u.role.into(),
+            None => format!("road user {}", k + 1).into(),
+        }
+    }
+
+    /// Whether every other road user's progress shares the ego's axis
+    /// (none is measured across the ego's road, as the pedestrian is).
+    pub fn shared_axis(&self) -> bool {
+        self.road_users.iter().all(|u| u.lateral.is_none())
+    }
+}
+
+/// A road user other than the ego, as figures and the drill-down name and
+/// place it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoadUser {
+    /// Its role in the scenario ("lane car", "follower").
+    pub role: &'static str,
+    /// For a road user that crosses the ego's road: the scene text's
+    /// lateral frame of its position. `None`: it travels along a path whose
+    /// progress shares the ego's axis.
+    pub lateral: Option<LateralFrame>,
+}
+
+/// A lateral frame across the ego's road, the one the scene text states
+/// (the pedestrian's position "from the near kerb"), so that figures and
+/// the drill-down show the numbers the model read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LateralFrame {
+    /// What the value measures, for an axis title ("from the near kerb").
+    pub measured: &'static str,
+    /// The frame's value is the plan view's y plus this (m).
+    pub plan_offset: f64,
+    /// Lines of the road in the frame: (value, label).
+    pub marks: [(f64, &'static str); 2],
+    /// Where the road user is in the ego's path, in the frame: [lo, hi].
+    pub in_path: (f64, f64),
+}
+
+impl LateralFrame {
+    /// A plan-view point's value in this frame.
+    pub fn of(&self, p: &world::PlanPoint) -> f64 {
+        p.y + self.plan_offset
     }
 }
 
@@ -563,6 +616,57 @@ mod tests {
         assert_ne!(text, BUILTIN[2].1, "the planted value did not apply");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: tier2.position_noise_m: must lie in [0, 10]"), "{e}");
+    }
+
+    #[test]
+    fn the_pedestrian_frame_is_the_scene_texts() {
+        let axes = ScenarioKind::PedestrianFeint.plan_axes();
+        let frame = axes.road_users[0].lateral.expect("the pedestrian has a lateral frame");
+        assert_eq!(frame.plan_offset, 1.75, "lat = y + 1.75, as the module doc states");
+        // Every sample the model reads is the plan point's value in the frame.
+        let config = ScenarioConfig::builtin(ScenarioKind::PedestrianFeint);
+        let mut checked = 0;
+        for tier in Tier::ALL {
+            for disposition in ScenarioKind::PedestrianFeint.dispositions() {
+                let key = episode_key(ScenarioKind::PedestrianFeint, tier, 7);
+                let mut world = config.build_world(tier, disposition, &key);
+                let mut ego = world.ego_start();
+                ego.v = 0.0; // the pedestrian acts on its own while the ego waits
+                for step in 0..80 {
+                    world.advance(&ego, f64::from(step) * crate::sim::DT, crate::sim::DT);
+                    let plan = world.plan(&ego);
+                    let seen = world.observe(&ego).tracks()[0].now.position_m;
+                    assert!((frame.of(&plan[1]) - seen).abs() < 1e-9, "{tier:?} {disposition}: {seen}");
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 480);
+        // The situation paragraph prints the same kerbs, and the in-path band (its bounds excluded: the
+        // pedestrian is in the path strictly inside them) as the positions it prints to 0.1 m.
+        let stated = format!(
+            "{} = kerb, {:.1} to {:.1} = in your path, {:.1} = far kerb",
+            frame.marks[0].0,
+            (frame.in_path.0 * 10.0).floor() / 10.0 + 0.1,
+            (frame.in_path.1 * 10.0).ceil() / 10.0 - 0.1,
+            frame.marks[1].0
+        );
+        assert!(ScenarioKind::PedestrianFeint.situation().contains(&stated), "{stated}");
+    }
+
+    #[test]
+    fn every_plan_point_has_a_role() {
+        // The built-in worlds' plan points: the ego, then one per road user of plan_axes.
+        for kind in ScenarioKind::ALL {
+            let key = episode_key(kind, Tier::T1, 1);
+            let world = ScenarioConfig::builtin(kind).build_world(Tier::T1, kind.dispositions()[0], &key);
+            let axes = kind.plan_axes();
+            assert_eq!(world.plan(&world.ego_start()).len(), axes.road_users.len() + 1, "{kind}");
+            assert_eq!(axes.road_users.len(), kind.track_labels().len(), "{kind}");
+        }
+        let merge = ScenarioKind::ContestedMerge.plan_axes();
+        assert_eq!((merge.role(0), merge.role(1)), ("lane car".into(), "follower".into()));
+        assert!(merge.shared_axis() && !ScenarioKind::PedestrianFeint.plan_axes().shared_axis());
     }
 
     #[test]

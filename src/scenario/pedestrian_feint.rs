@@ -67,6 +67,14 @@ pub const PATH_NEAR: f64 = KERB - 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 pub const PATH_FAR: f64 = KERB + 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 /// Far kerb of the two-lane road.
 pub const FAR_KERB: f64 = 4.0 * KERB;
+/// The pedestrian's public frame (lateral from the near kerb, as the scene
+/// text states it), for figures and the drill-down.
+pub(crate) const KERB_FRAME: super::LateralFrame = super::LateralFrame {
+    measured: "from the near kerb",
+    plan_offset: KERB,
+    marks: [(0.0, "near kerb"), (FAR_KERB, "far kerb")],
+    in_path: (PATH_NEAR, PATH_FAR),
+};
 /// Pedestrians stop and step out this briskly (m/s^2).
 const PED_ACCEL: f64 = 6.0;
 /// A car keeping at least this fraction of the speed limit (and not

@@ -471,6 +471,187 @@ fn leaderboard_snapshot() {
     ");
 }
 
+/// A pedestrian_feint line whose pedestrian walks along plan y = -3 + t
+/// (the ego along x): 7 points, 0.5 s apart.
+fn pedestrian_line(model: &str, seed: u64, outcome: Outcome) -> String {
+    let mut v: Value =
+        serde_json::from_str(&line(model, &hash(model, None), ScenarioKind::PedestrianFeint, 1, seed, 0, outcome))
+            .unwrap();
+    let points: Vec<Value> = (0..7)
+        .map(|i| {
+            let t = f64::from(i) * 0.5;
+            json!({"time_s": t, "agents": [{"x": -30.0 + 10.0 * t, "y": 0.0, "v": 10.0}, {"x": 0.0, "y": -3.0 + t, "v": 1.0}]})
+        })
+        .collect();
+    v["trajectory"] = Value::Array(points);
+    format!("{v}\n")
+}
+
+/// Attribute `name` of the SVG element starting at `at`.
+fn attr<'a>(svg: &'a str, at: usize, name: &str) -> &'a str {
+    let tag = &svg[at..at + svg[at..].find('>').unwrap()];
+    let start = tag.find(&format!(" {name}=\"")).unwrap_or_else(|| panic!("no {name} in {tag}")) + name.len() + 3;
+    &tag[start..start + tag[start..].find('"').unwrap()]
+}
+
+#[test]
+fn the_pedestrian_is_drawn_in_the_scene_texts_kerb_frame() {
+    let root = scratch("report-kerb");
+    let pf = ScenarioKind::PedestrianFeint;
+    let lines: Vec<String> = (0..3).map(|seed| pedestrian_line("m", seed, Outcome::Timeout)).collect();
+    write_run(&root.join("m"), &RunSpec { seeds: 3, scenarios: &[pf], ..spec("m") }, &lines);
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
+    let plot = built.report.plots.iter().find(|p| p.name == "trajectory_m_pedestrian_feint_t1_s0_r0").expect("figure");
+    let svg = &plot.svg;
+    // Its own panel: near kerb at 0, far kerb at 7, the in-path band 0.5-3.0, all in the kerb frame.
+    let panel = &svg[svg.find("pedestrian in the ego&#39;s path (0.5–3.0 m)").expect("in-path band")..];
+    let panel = &panel[..panel.find(", as the scene text gives it").expect("the panel's title")];
+    let kerb_lines: Vec<f64> = panel
+        .match_indices("<line ")
+        .filter(|(i, _)| attr(panel, *i, "stroke-dasharray") == "4 3")
+        .map(|(i, _)| attr(panel, i, "y1").parse().unwrap())
+        .collect();
+    let [near, far] = kerb_lines[..] else { panic!("two kerb lines: {kerb_lines:?}") };
+    assert!(panel.contains(">near kerb</text>") && panel.contains(">far kerb</text>"), "{panel}");
+    // Read the pedestrian's line back through the two kerbs: lateral = y + 1.75 at every point.
+    let at = panel.find("<polyline ").expect("the pedestrian's line");
+    let values: Vec<f64> = attr(panel, at, "points")
+        .split(' ')
+        .map(|p| p.split(',').nth(1).unwrap().parse::<f64>().unwrap())
+        .map(|py| (py - near) / (far - near) * 7.0)
+        .collect();
+    assert_eq!(values.len(), 7);
+    for (i, v) in values.iter().enumerate() {
+        let expected = -3.0 + f64::from(i as u32) * 0.5 + 1.75;
+        assert!((v - expected).abs() < 0.01, "point {i}: {v} vs {expected}");
+    }
+    // The ego's position panel does not share its axis with the pedestrian any more.
+    assert!(svg.contains(">ego position (m)</text>"), "{svg}");
+    assert!(plot.caption.contains("pedestrian has its own panel in the scene text's frame, from the near kerb"));
+    // The drill-down data: the same frame, named by role.
+    let drill = serde_json::to_value(&built.drill).unwrap();
+    assert_eq!(drill["scenes"][1]["roles"], json!(["pedestrian"]));
+    assert_eq!(drill["scenes"][1]["lateral"][0]["measured"], "from the near kerb");
+    assert_eq!(drill["scenes"][1]["lateral"][0]["path"], json!([0.5, 3.0]));
+    assert_eq!(drill["scenes"][2]["roles"], json!(["lane car", "follower"]));
+    let turns = drill["transcripts"][0]["turns"].as_array().unwrap();
+    assert_eq!(turns.len(), 2);
+    for (i, t) in turns.iter().enumerate() {
+        let y = t["o"][0][1].as_f64().unwrap();
+        assert_eq!(y, -3.0 + 0.5 * i as f64);
+        assert_eq!(t["f"], json!([y + 1.75]), "turn {i}");
+    }
+}
+
+/// Three models on yield_standoff seeds 0-3: `alpha` always succeeds,
+/// `beta` collides on odd seeds, the long-named one always collides.
+const LONG: &str = "accounts/fireworks/models/llama-v3p1-405b-instruct";
+
+fn three_models(root: &Path) {
+    let ys = ScenarioKind::YieldStandoff;
+    for (model, collide) in
+        [("alpha", &(|_: u64| false) as &dyn Fn(u64) -> bool), ("beta", &|s| s % 2 == 1), (LONG, &|_| true)]
+    {
+        let h = hash(model, None);
+        let lines: Vec<String> = (0..4)
+            .map(|seed| {
+                line(model, &h, ys, 1, seed, 0, if collide(seed) { Outcome::Collision } else { Outcome::Success })
+            })
+            .collect();
+        write_run(&root.join(model.replace('/', "_")), &RunSpec { seeds: 4, ..spec(model) }, &lines);
+    }
+}
+
+#[test]
+fn maneuver_timelines_have_one_row_per_model_in_leaderboard_order() {
+    let root = scratch("report-timeline");
+    three_models(&root);
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
+    let order: Vec<&str> = built.report.leaderboard.rows.iter().map(|r| r.model.as_str()).collect();
+    assert_eq!(order, ["alpha", "beta", LONG]);
+    // Trajectories: alpha's first success (seed 0), beta's first collision (seed 1), the long one's (seed 0).
+    let names: Vec<&str> = built.report.plots.iter().map(|p| p.name.as_str()).collect();
+    let timelines: Vec<&&str> = names.iter().filter(|n| n.starts_with("timeline_")).collect();
+    assert_eq!(timelines, [&"timeline_yield_standoff_t1_s0_r0", &"timeline_yield_standoff_t1_s1_r0"]);
+    for name in timelines {
+        let svg = &built.report.plots.iter().find(|p| p.name == **name).unwrap().svg;
+        // One row per model, named (shortened, the full name in the tooltip), in leaderboard order.
+        let rows: Vec<usize> = order
+            .iter()
+            .map(|m| {
+                let shown = if *m == LONG { "accounts/fir\u{2026}5b-instruct" } else { m };
+                svg.find(&format!("<title>{m}</title>{shown}</text>")).unwrap_or_else(|| panic!("{m}: {svg}"))
+            })
+            .collect();
+        assert!(rows.windows(2).all(|w| w[0] < w[1]), "{name}: rows out of order");
+        assert!(!svg.contains(&format!(">{LONG}</text>")), "the long name is shortened");
+        // Each row's strip has one cell per turn (two here), and its outcome at the end.
+        for m in &order {
+            assert_eq!(svg.matches(&format!("<title>{m}: turn ")).count(), 2, "{name}: {m}");
+        }
+        let seed1 = name.contains("_s1_");
+        let outcomes: Vec<&str> = order
+            .iter()
+            .map(|m| if *m == "alpha" || (*m == "beta" && !seed1) { "success" } else { "collision" })
+            .collect();
+        for (m, o) in order.iter().zip(outcomes) {
+            assert!(svg.contains(&format!("<title>{m}: {o} after 2 turns")), "{name}: {m} {o}");
+        }
+    }
+}
+
+#[test]
+fn episode_flag_selects_exactly_the_named_episodes() {
+    let root = scratch("report-episode");
+    three_models(&root);
+    let pick = |s: &str| s.parse::<negotiator::report::pick::EpisodePick>().unwrap();
+    let o = ReportOptions {
+        episodes: vec![pick("beta:yield_standoff:1:2"), pick(&format!("{LONG}:yield_standoff:1:3:0"))],
+        ..opts()
+    };
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &o).unwrap();
+    let names: Vec<&str> = built
+        .report
+        .plots
+        .iter()
+        .map(|p| p.name.as_str())
+        .filter(|n| n.starts_with("trajectory_") || n.starts_with("timeline_"))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "trajectory_beta_yield_standoff_t1_s2_r0",
+            "trajectory_accounts_fireworks_models_llama-v3p1-405b-instruct_yield_standoff_t1_s3_r0",
+            "timeline_yield_standoff_t1_s2_r0",
+            "timeline_yield_standoff_t1_s3_r0",
+        ]
+    );
+    // Their transcripts are in the drill-down, first.
+    let drill = serde_json::to_value(&built.drill).unwrap();
+    let with_transcript: Vec<(u64, u64)> = drill["episodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e[13].as_i64() == Some(0) || e[13].as_i64() == Some(1))
+        .map(|e| (e[0].as_u64().unwrap(), e[3].as_u64().unwrap()))
+        .collect();
+    assert_eq!(with_transcript, [(1, 2), (2, 3)]);
+    // Not in the runs, unknown model: input errors naming the flag.
+    for (given, expected) in [
+        ("beta:yield_standoff:1:9", "--episode 'beta:yield_standoff:1:9': no such episode in the runs of 'beta'"),
+        ("beta:pedestrian_feint:1:0", "no such episode"),
+        ("beta:yield_standoff:1:2:1", "rollout 1 was not run"),
+        (
+            "gamma:yield_standoff:1:2",
+            "--episode 'gamma:yield_standoff:1:2': unknown model 'gamma' (the runs hold: alpha, beta,",
+        ),
+    ] {
+        let o = ReportOptions { episodes: vec![pick(given)], ..opts() };
+        let e = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &o).err().expect(given);
+        assert!(e.to_string().contains(expected), "{given}: {e}");
+    }
+}
+
 #[test]
 fn incomplete_models_are_marked_everywhere_and_not_ranked() {
     let root = scratch("report-incomplete");
@@ -685,6 +866,7 @@ fn end_to_end_report_files_and_offline_html() {
         assert!(plots.iter().any(|p| p.file_stem().unwrap() == stem), "{stem}.svg missing");
     }
     assert!(plots.iter().any(|p| p.file_name().unwrap().to_string_lossy().starts_with("trajectory_always_proceed_")));
+    assert!(plots.iter().any(|p| p.file_name().unwrap().to_string_lossy().starts_with("timeline_pedestrian_feint_")));
     for p in &plots {
         let text = std::fs::read_to_string(p).unwrap();
         assert_well_formed(&p.display().to_string(), &text);
@@ -755,6 +937,35 @@ fn end_to_end_report_files_and_offline_html() {
         !dom[dom.find("id=\"dd-traj\"").unwrap()..].starts_with("id=\"dd-traj\"><svg"),
         "a stale trajectory is shown"
     );
+    // A pedestrian episode: its lateral position in the scene text's kerb frame, with both kerbs and the
+    // in-path band, and the road user named by its role.
+    let walker = data["episodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e[1] == 1 && e[13].as_i64() >= Some(0))
+        .expect("a pedestrian episode with a transcript");
+    let key = (0..5).map(|i| walker[i].to_string()).collect::<Vec<_>>().join("|");
+    let dom = Command::new(chromium)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
+        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("file://{}#episode={}", dir.join("report.html").display(), key.replace('|', "%7C")))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(dom.contains(&format!("data-episode=\"{key}\"")), "episode {key} not selected");
+    let traj = &dom[dom.find("id=\"dd-traj\"").unwrap()..];
+    let traj = &traj[..traj.find("<table class=\"turns\"").unwrap()];
+    assert!(traj.contains("class=\"lateral\" data-role=\"pedestrian\""), "no lateral panel: {traj}");
+    for text in ["near kerb (0)", "far kerb (7)", "in the ego's path (0.5–3.0 m)", "pedestrian, from the near kerb (m)"]
+    {
+        assert!(traj.contains(text), "{text} missing: {traj}");
+    }
+    assert!(
+        dom.contains("<div>pedestrian: ") && dom.contains(" m from the near kerb, "),
+        "the turn rows name the role"
+    );
 }
 
 #[test]
@@ -782,4 +993,19 @@ fn bad_input_is_a_one_line_usage_error() {
             .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("baselines.csv"));
+    // --episode: malformed, unknown scenario, bad tier, unknown model, an episode not in the run.
+    let run = root.join("run");
+    for (value, expected) in [
+        ("m:yield_standoff:1", "expected MODEL:SCENARIO:TIER:SEED[:ROLLOUT]"),
+        ("m:four_way:1:0", "unknown scenario 'four_way'"),
+        ("m:yield_standoff:4:0", "unknown tier '4'"),
+        ("nobody:yield_standoff:1:0", "unknown model 'nobody' (the runs hold: m)"),
+        ("m:yield_standoff:1:5", "no such episode in the runs of 'm'"),
+    ] {
+        let out = report_cmd(&root.join("out"), &[run.to_str().unwrap(), "--episode", value]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{value}: {stderr}");
+        assert!(stderr.trim().lines().count() == 1, "{value}: {stderr}");
+        assert!(stderr.contains(&format!("--episode '{value}': {expected}")), "{value}: {stderr}");
+    }
 }

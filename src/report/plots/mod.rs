@@ -9,6 +9,7 @@ mod outcomes;
 mod radar;
 mod scenario_success;
 mod tier_ladder;
+mod timeline;
 mod timing;
 mod trajectory;
 
@@ -48,6 +49,10 @@ pub struct PlotInput<'a> {
     pub refs: &'a References,
     pub data: &'a Dataset,
     pub transcripts: &'a [Loaded],
+    /// The episodes drawn as trajectories (see [`super::pick`]).
+    pub trajectories: &'a [Loaded],
+    /// The maneuver timelines across models (see [`super::pick`]).
+    pub timelines: &'a [super::pick::Timeline],
 }
 
 impl PlotInput<'_> {
@@ -149,6 +154,7 @@ pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     plots.extend(timing::plots(input));
     plots.extend(radar::plot(input));
     plots.extend(trajectory::plots(input));
+    plots.extend(timeline::plots(input));
     plots.extend(belief::plots(input));
     plots
 }
