@@ -494,6 +494,31 @@ fn attr<'a>(svg: &'a str, at: usize, name: &str) -> &'a str {
     &tag[start..start + tag[start..].find('"').unwrap()]
 }
 
+/// Every unrotated text of `svg` lies inside its viewBox width, at the
+/// figures' width estimate (0.58 × font size per character).
+fn assert_texts_fit(name: &str, svg: &str) {
+    let width: f64 = svg.split("viewBox=\"0 0 ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    for (at, _) in svg.match_indices("<text ") {
+        let tag = &svg[at..at + svg[at..].find('>').unwrap()];
+        if tag.contains("transform=") {
+            continue;
+        }
+        let body = &svg[at + tag.len() + 1..];
+        let body = &body[..body.find("</text>").unwrap()];
+        let body = body.rsplit("</title>").next().unwrap();
+        let chars =
+            body.replace("&amp;", "&").replace("&#39;", "'").replace("&lt;", "<").replace("&gt;", ">").chars().count();
+        let (x, size): (f64, f64) = (attr(svg, at, "x").parse().unwrap(), attr(svg, at, "font-size").parse().unwrap());
+        let w = chars as f64 * size * 0.58;
+        let (left, right) = match attr(svg, at, "text-anchor") {
+            "start" => (x, x + w),
+            "middle" => (x - w / 2.0, x + w / 2.0),
+            _ => (x - w, x),
+        };
+        assert!(left >= 0.0 && right <= width, "{name}: '{body}' spans {left:.0}..{right:.0} of {width}");
+    }
+}
+
 #[test]
 fn the_pedestrian_is_drawn_in_the_scene_texts_kerb_frame() {
     let root = scratch("report-kerb");
@@ -525,6 +550,7 @@ fn the_pedestrian_is_drawn_in_the_scene_texts_kerb_frame() {
         let expected = -3.0 + f64::from(i as u32) * 0.5 + 1.75;
         assert!((v - expected).abs() < 0.01, "point {i}: {v} vs {expected}");
     }
+    assert_texts_fit(&plot.name, svg);
     // The ego's position panel does not share its axis with the pedestrian any more.
     assert!(svg.contains(">ego position (m)</text>"), "{svg}");
     assert!(plot.caption.contains("pedestrian has its own panel in the scene text's frame, from the near kerb"));
@@ -585,6 +611,7 @@ fn maneuver_timelines_have_one_row_per_model_in_leaderboard_order() {
             .collect();
         assert!(rows.windows(2).all(|w| w[0] < w[1]), "{name}: rows out of order");
         assert!(!svg.contains(&format!(">{LONG}</text>")), "the long name is shortened");
+        assert_texts_fit(name, svg);
         // Each row's strip has one cell per turn (two here), and its outcome at the end.
         for m in &order {
             assert_eq!(svg.matches(&format!("<title>{m}: turn ")).count(), 2, "{name}: {m}");
@@ -626,6 +653,10 @@ fn episode_flag_selects_exactly_the_named_episodes() {
             "timeline_yield_standoff_t1_s3_r0",
         ]
     );
+    for p in built.report.plots.iter().filter(|p| p.name.starts_with("trajectory_") || p.name.starts_with("timeline_"))
+    {
+        assert_texts_fit(&p.name, &p.svg);
+    }
     // Their transcripts are in the drill-down, first.
     let drill = serde_json::to_value(&built.drill).unwrap();
     let with_transcript: Vec<(u64, u64)> = drill["episodes"]

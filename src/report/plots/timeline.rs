@@ -14,7 +14,7 @@ const ROW_TOP: f64 = 50.0;
 const ROW_H: f64 = 20.0;
 const ROW_PITCH: f64 = 30.0;
 /// The strips' time axis (x); model names left of it, outcomes right.
-const STRIP_X: (f64, f64) = (214.0, 800.0);
+const STRIP_X: (f64, f64) = (214.0, 780.0);
 const WIDTH: f64 = 940.0;
 
 pub(crate) fn plots(input: &PlotInput) -> Vec<Plot> {

@@ -189,15 +189,18 @@ fn plot(model: &str, shown: &str, l: &Loaded) -> Plot {
     Plot { name, title: title.clone(), caption: caption(model, &fig), svg: svg.finish(&title) }
 }
 
-/// Labels placed so that none overlaps an earlier one: each moves down by
-/// a line until it is clear (end-of-line labels of close curves).
+/// Labels placed so that none overlaps an earlier one: each moves by a
+/// line (down for end-of-line labels of close curves, up for labels above
+/// a path's start, off the path) until it is clear.
 struct Labels {
     placed: Vec<(f64, f64, f64)>, // x0, x1, baseline y
+    /// +1: move down; -1: move up.
+    direction: f64,
 }
 
 impl Labels {
-    fn new() -> Labels {
-        Labels { placed: Vec::new() }
+    fn new(direction: f64) -> Labels {
+        Labels { placed: Vec::new(), direction }
     }
 
     fn put(&mut self, svg: &mut Svg, x: f64, y: f64, text: &str, color: &str) {
@@ -205,7 +208,7 @@ impl Labels {
         let x1 = x + text_width(text, SIZE);
         let mut y = y;
         while self.placed.iter().any(|&(a0, a1, ay)| a0 < x1 && x < a1 && (ay - y).abs() < SIZE + 1.0) {
-            y += SIZE + 1.0;
+            y += self.direction * (SIZE + 1.0);
         }
         self.placed.push((x, x1, y));
         svg.text(x, y, text, SIZE, "start", &format!(" fill=\"{color}\""));
@@ -254,7 +257,7 @@ fn plan_view(svg: &mut Svg, fig: &Figure) {
             }
         }
     }
-    let mut labels = Labels::new();
+    let mut labels = Labels::new(-1.0);
     for k in 0..fig.others {
         let path: Vec<(f64, f64)> =
             traj.iter().filter_map(|p| p.agents.get(k + 1)).map(|a| (sx.at(a.x), sy.at(a.y))).collect();
@@ -324,7 +327,7 @@ fn positions(svg: &mut Svg, fig: &Figure, st: &Scale, (ay0, ay1): (f64, f64)) {
     svg.text(tx0 + 4.0, sa.at(0.0) - 3.0, fig.axes.zero_label, 9.0, "start", " fill=\"#555\"");
     let title = if along_users.is_empty() { "ego position (m)" } else { "position (m)" };
     axis_label(svg, tx0 - 36.0, (ay0 + ay1) / 2.0, title);
-    let mut labels = Labels::new();
+    let mut labels = Labels::new(1.0);
     let ego_pos: Vec<(f64, f64)> = series.iter().map(|s| (st.at(s.0), sa.at(s.1))).collect();
     svg.polyline(&ego_pos, EGO, 2.2, None);
     if let Some(&(_, y)) = ego_pos.last() {
@@ -369,7 +372,7 @@ fn lateral_panel(svg: &mut Svg, fig: &Figure, st: &Scale, k: usize, frame: &Late
         "start",
         &format!(" fill=\"{}\"", agent_color(k)),
     );
-    let mut labels = Labels::new();
+    let mut labels = Labels::new(1.0);
     for (value, label) in frame.marks {
         svg.line(tx0, sl.at(value), tx1, sl.at(value), INK, 1.0, Some("4 3"));
         labels.put(svg, tx1 + 4.0, sl.at(value) + 3.5, label, "#555");
