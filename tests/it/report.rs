@@ -628,6 +628,35 @@ fn maneuver_timelines_have_one_row_per_model_in_leaderboard_order() {
 }
 
 #[test]
+fn a_model_without_the_seed_keeps_its_timeline_row_empty() {
+    let root = scratch("report-timeline-gap");
+    three_models(&root);
+    // delta ran seeds 0-1 only (its whole selection, so it is complete).
+    let h = hash("delta", None);
+    let lines: Vec<String> =
+        (0..2).map(|seed| line("delta", &h, ScenarioKind::YieldStandoff, 1, seed, 0, Outcome::Success)).collect();
+    write_run(&root.join("delta"), &RunSpec { seeds: 2, ..spec("delta") }, &lines);
+    let pick = "alpha:yield_standoff:1:3".parse::<negotiator::report::pick::EpisodePick>().unwrap();
+    let built = report::build_from(
+        load_dirs(std::slice::from_ref(&root)).unwrap(),
+        refs(),
+        &ReportOptions { episodes: vec![pick], ..opts() },
+    )
+    .unwrap();
+    let svg =
+        &built.report.plots.iter().find(|p| p.name == "timeline_yield_standoff_t1_s3_r0").expect("the timeline").svg;
+    let rows = built.report.leaderboard.rows.len();
+    assert_eq!(rows, 4);
+    assert_eq!(svg.matches("no episode of this seed").count(), 1, "{svg}");
+    let gap = svg.find("no episode of this seed").unwrap();
+    assert!(svg[..gap].contains("<title>delta</title>delta</text>"), "the empty row is delta's");
+    assert!(!svg.contains("<title>delta: turn "), "delta has no cells");
+    for m in ["alpha", "beta", LONG] {
+        assert_eq!(svg.matches(&format!("<title>{m}: turn ")).count(), 2, "{m}");
+    }
+}
+
+#[test]
 fn episode_flag_selects_exactly_the_named_episodes() {
     let root = scratch("report-episode");
     three_models(&root);
