@@ -56,6 +56,11 @@ pub struct ReportArgs {
     /// Without it, one episode per model and scenario is chosen.
     #[arg(long = "episode", value_name = "MODEL:SCENARIO:TIER:SEED[:ROLLOUT]")]
     pub episodes: Vec<String>,
+    /// How the figures are drawn: default (for the screen and report.html)
+    /// or paper (text at least 8 pt at the declared print width of 3.3 in
+    /// or 7 in, no titles, and a PDF beside each SVG).
+    #[arg(long, value_name = "STYLE", default_value = "default")]
+    pub style: String,
     /// Print nothing but errors.
     #[arg(long, short = 'q')]
     pub quiet: bool,
@@ -78,6 +83,7 @@ impl ReportArgs {
             .iter()
             .map(|e| e.parse().map_err(|e: BadPick| usage(e.to_string())))
             .collect::<Result<_, _>>()?;
+        let style = self.style.parse().map_err(|e| usage(format!("--style: {e}")))?;
         Ok(ReportOptions {
             dirs: self.runs.clone(),
             baselines: self.baselines.clone().unwrap_or_else(|| PathBuf::from("results/baselines")),
@@ -88,6 +94,7 @@ impl ReportArgs {
             transcripts_per_cell: self.transcripts,
             include_incomplete: self.include_incomplete,
             episodes,
+            style,
         })
     }
 

@@ -17,6 +17,7 @@ pub mod html;
 pub mod load;
 pub mod paired;
 pub mod passk;
+pub mod pdf;
 pub mod pick;
 pub mod plots;
 pub mod reference;
@@ -60,12 +61,14 @@ pub enum ReportError {
     Io { path: String, source: std::io::Error },
     #[error(transparent)]
     Pick(#[from] pick::BadPick),
+    #[error("{path}: {source}")]
+    Pdf { path: String, source: pdf::PdfError },
 }
 
 impl ReportError {
     /// Bad input (exit code 2), as opposed to an I/O failure.
     pub(crate) fn is_input(&self) -> bool {
-        !matches!(self, ReportError::Io { .. })
+        !matches!(self, ReportError::Io { .. } | ReportError::Pdf { .. })
     }
 }
 
@@ -89,6 +92,8 @@ pub struct ReportOptions {
     /// `--episode`: the episodes of the trajectory figures (empty: the
     /// default choice, see [`pick`]).
     pub episodes: Vec<pick::EpisodePick>,
+    /// How the figures are drawn; paper also writes a PDF of each.
+    pub style: plots::Style,
 }
 
 impl Default for ReportOptions {
@@ -103,6 +108,7 @@ impl Default for ReportOptions {
             transcripts_per_cell: 3,
             include_incomplete: false,
             episodes: Vec::new(),
+            style: plots::Style::Default,
         }
     }
 }
@@ -153,6 +159,8 @@ pub struct Report {
 pub struct Built {
     pub report: Report,
     pub drill: drill::DrillData,
+    /// The figures' style (paper: a PDF beside each SVG).
+    pub style: plots::Style,
 }
 
 const INTERVAL: &str = "95% percentile bootstrap: type-7 (linear interpolation) quantiles at 0.025 and 0.975 of the \
@@ -288,6 +296,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         transcripts: &transcripts,
         trajectories: &trajectories,
         timelines: &timelines,
+        style: opts.style,
     });
     let drill = drill::build(&data, &transcripts, opts.transcripts_per_cell);
     let models = ordered
@@ -322,7 +331,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         plots,
         warnings,
     };
-    Ok(Built { report, drill })
+    Ok(Built { report, drill, style: opts.style })
 }
 
 impl Report {
@@ -461,12 +470,14 @@ impl Report {
     }
 }
 
-/// Write every output into `out`; returns the files written.
+/// Write every output into `out`; returns the files written. In paper
+/// style a PDF of each figure is written beside its SVG (same stem), made
+/// from the scrubbed SVG.
 ///
 /// All or nothing, as far as a file system allows: every file is first
 /// written whole to a temporary name beside its target (scrubbed of
 /// secrets) and fsynced; only when all of them are written are they renamed
-/// into place, and only then are stale `plots/*.svg` from an earlier report
+/// into place, and only then are stale `plots/*.svg` and `*.pdf` from an earlier report
 /// removed. A full disk or a kill while writing leaves the previous report
 /// untouched and no temporary file behind; the error names the file that
 /// could not be written.
@@ -491,7 +502,15 @@ pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
     files.extend(r.plots.iter().map(|p| (plots_dir.join(format!("{}.svg", p.name)), p.file_text())));
     let mut staged = Vec::with_capacity(files.len());
     for (path, text) in &files {
-        staged.push(crate::atomic::stage(path, &crate::redact::scrub_bytes(text.as_bytes())).map_err(io(path))?);
+        let bytes = crate::redact::scrub_bytes(text.as_bytes());
+        staged.push(crate::atomic::stage(path, &bytes).map_err(io(path))?);
+        if built.style.pdf() && path.extension().is_some_and(|e| e == "svg") {
+            let pdf_path = path.with_extension("pdf");
+            let svg = String::from_utf8_lossy(&bytes);
+            let pdf = pdf::from_svg(&svg)
+                .map_err(|source| ReportError::Pdf { path: pdf_path.display().to_string(), source })?;
+            staged.push(crate::atomic::stage(&pdf_path, &pdf).map_err(io(&pdf_path))?);
+        }
     }
     let mut written = Vec::with_capacity(staged.len());
     for s in staged {
@@ -501,7 +520,7 @@ pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
     }
     for entry in std::fs::read_dir(&plots_dir).map_err(io(&plots_dir))?.flatten() {
         let p = entry.path();
-        if p.extension().is_some_and(|e| e == "svg") && !written.contains(&p) {
+        if p.extension().is_some_and(|e| e == "svg" || e == "pdf") && !written.contains(&p) {
             std::fs::remove_file(&p).map_err(io(&p))?;
         }
     }

@@ -3,7 +3,7 @@
 //! over time of chosen episodes next to the ideal observer's, with the
 //! evidence turn marked. A report without probe runs has neither.
 
-use super::{CEILING_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_x, rate_axis_y, text_width};
+use super::{CEILING_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_x, rate_axis_y};
 use crate::export::f2;
 use crate::report::drill::Loaded;
 
@@ -28,15 +28,16 @@ fn probed(input: &PlotInput) -> Vec<(Series, crate::belief::BeliefSummary)> {
 }
 
 fn reliability(input: &PlotInput) -> Option<Plot> {
+    let st = input.style;
     let models = probed(input);
     if models.is_empty() {
         return None;
     }
     let (left, top, size) = (56.0, 40.0, 320.0);
-    let legend_w = models.iter().map(|(m, _)| text_width(&m.name, 11.0)).fold(170.0, f64::max) + 30.0;
-    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 56.0);
+    let legend_w = models.iter().map(|(m, _)| st.text_width(&m.name, 11.0)).fold(170.0, f64::max) + 30.0;
+    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 56.0, st);
     let title = "Belief calibration (reliability diagram, every turn)".to_string();
-    svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, &title, 14.0, 24.0);
     rate_axis_y(&mut svg, top, size, left, left + size);
     rate_axis_x(&mut svg, left, size, top, top + size);
     svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
@@ -108,6 +109,7 @@ fn chosen<'a>(input: &'a PlotInput) -> Vec<&'a Loaded> {
 }
 
 fn over_time(input: &PlotInput) -> Option<Plot> {
+    let st = input.style;
     let episodes = chosen(input);
     if episodes.is_empty() {
         return None;
@@ -117,9 +119,9 @@ fn over_time(input: &PlotInput) -> Option<Plot> {
     let cols = episodes.len().min(2);
     let rows = episodes.len().div_ceil(2);
     let top0 = 56.0;
-    let mut svg = Svg::new(20.0 + cols as f64 * (pw + 60.0 + gap), top0 + rows as f64 * (ph + 70.0) + 10.0);
+    let mut svg = Svg::new(20.0 + cols as f64 * (pw + 60.0 + gap), top0 + rows as f64 * (ph + 70.0) + 10.0, st);
     let title = "Belief over time: stated, ideal observer, evidence turn".to_string();
-    svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, &title, 14.0, 24.0);
     let mut x = 10.0;
     x += svg.legend_item(x, 40.0, "#555", "stated belief (model colour)", false);
     x += svg.legend_item(x, 40.0, CEILING_COLOR, "ideal observer", true);

@@ -3,19 +3,22 @@
 //! right calls that did not become successes. Overplotted points are
 //! translucent, jittered by a few pixels and counted ("×n").
 
-use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_y, text_width};
+use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_y};
 use crate::export::f2;
 use crate::report::reference::{CEILING, FLOOR};
 use crate::report::tables::tiers_label;
 
 pub(crate) fn plot(input: &PlotInput) -> Plot {
+    let st = input.style;
     let lb = input.leaderboard;
     let models = input.series();
-    let (left, top, size) = (56.0, 40.0, 340.0);
-    let legend_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(140.0, f64::max) + 40.0;
-    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 60.0);
+    // Lengths that hold text grow with it (paper style).
+    let v = |x: f64| st.space(x);
+    let (left, top, size) = (v(56.0), v(40.0), 340.0);
+    let legend_w = models.iter().map(|m| st.text_width(&m.name, 11.0)).fold(v(140.0), f64::max) + v(40.0);
+    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + v(60.0), st);
     let title = format!("Success vs decision correctness ({})", tiers_label(&lb.tiers));
-    svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, &title, 14.0, 24.0);
     frame(&mut svg, left, top, size);
     points(&mut svg, input, &models, left, top, size);
     legend(&mut svg, input, &models, left + size + 24.0, top + 6.0);
@@ -32,25 +35,27 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
 
 /// Both rate axes, their labels and the diagonal.
 fn frame(svg: &mut Svg, left: f64, top: f64, size: f64) {
+    let st = svg.style();
+    let v = |x: f64| st.space(x);
     rate_axis_y(svg, top, size, left, left + size);
     for k in 0..=4 {
         let v = f64::from(k) / 4.0;
         let x = left + v * size;
         svg.line(x, top, x, top + size, GRID, 1.0, None);
-        svg.text(x, top + size + 14.0, &format!("{v}"), 10.0, "middle", "");
+        svg.text(x, top + size + st.space(14.0), &format!("{v}"), 10.0, "middle", "");
     }
     svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
     // The diagonal's label sits above the plot area, at the diagonal's end,
     // where no point can be.
-    svg.text(left + size - 14.0, top - 8.0, "dashed: success = correctness", 10.0, "end", " fill=\"#555\"");
-    svg.text(left + size / 2.0, top + size + 32.0, "decision correctness", 11.0, "middle", "");
+    svg.text(left + size - 14.0, top - v(8.0), "dashed: success = correctness", 10.0, "end", " fill=\"#555\"");
+    svg.text(left + size / 2.0, top + size + v(32.0), "decision correctness", 11.0, "middle", "");
     svg.text(
-        14.0,
+        v(14.0),
         top + size / 2.0,
         "success",
         11.0,
         "middle",
-        &format!(" transform=\"rotate(-90 14 {})\"", top + size / 2.0),
+        &format!(" transform=\"rotate(-90 {} {})\"", super::n(v(14.0)), top + size / 2.0),
     );
 }
 
@@ -117,24 +122,26 @@ const OVERLAP_RADIUS: f64 = 6.0;
 
 /// Models (colour), scenarios (shape), references (hollow), from (lx, y).
 fn legend(svg: &mut Svg, input: &PlotInput, models: &[Series], lx: f64, mut y: f64) {
+    let st = svg.style();
+    let v = |x: f64| st.space(x);
     let by_scenario = shape_is_scenario(models);
     for m in models {
-        svg.marker(if by_scenario { 1 } else { m.shape }, lx + 6.0, y - 4.0, 5.0, m.color, INK, None);
+        svg.marker(if by_scenario { 1 } else { m.shape }, lx + 6.0, y - v(4.0), 5.0, m.color, INK, None);
         svg.text_tip(lx + 17.0, y, &m.name, 11.0, "start", &m.label);
-        y += 16.0;
+        y += v(16.0);
     }
-    y += 8.0;
+    y += v(8.0);
     for (k, s) in input.leaderboard.scenarios.iter().enumerate().filter(|_| by_scenario) {
-        svg.marker(k, lx + 6.0, y - 4.0, 5.0, "#777", INK, None);
+        svg.marker(k, lx + 6.0, y - v(4.0), 5.0, "#777", INK, None);
         svg.text(lx + 17.0, y, &s.to_string(), 11.0, "start", "");
-        y += 16.0;
+        y += v(16.0);
     }
-    y += 8.0;
+    y += v(8.0);
     svg.text(lx, y, "\u{d7}n: n points overlap", 11.0, "start", "");
-    y += 20.0;
+    y += v(20.0);
     for (label, color) in [("expert (hollow)", CEILING_COLOR), ("always_proceed (hollow)", FLOOR_COLOR)] {
-        svg.circle(lx + 6.0, y - 4.0, 5.0, "none", color, None);
+        svg.circle(lx + 6.0, y - v(4.0), 5.0, "none", color, None);
         svg.text(lx + 17.0, y, label, 11.0, "start", "");
-        y += 16.0;
+        y += v(16.0);
     }
 }

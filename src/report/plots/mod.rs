@@ -1,13 +1,14 @@
 //! Self-contained SVG plots, written by hand: no plotting crate, no fonts,
 //! no external references (the standalone files carry only the SVG
 //! namespace; the copies inlined in report.html not even that). Every text
-//! is escaped.
+//! is escaped. Text sizes come from the [`Style`] (see [`style`]).
 
 mod belief;
 mod correctness;
 mod outcomes;
 mod radar;
 mod scenario_success;
+pub mod style;
 mod tier_ladder;
 mod timeline;
 mod timing;
@@ -20,6 +21,7 @@ use super::tables::{Leaderboard, OutcomeRow, TierRow};
 use crate::export::esc;
 use serde::Serialize;
 use std::fmt::Write;
+pub use style::Style;
 
 /// One figure.
 #[derive(Debug, Clone, Serialize)]
@@ -53,6 +55,8 @@ pub struct PlotInput<'a> {
     pub trajectories: &'a [Loaded],
     /// The maneuver timelines across models (see [`super::pick`]).
     pub timelines: &'a [super::pick::Timeline],
+    /// How the figures are drawn (text sizes, titles, print width).
+    pub style: Style,
 }
 
 impl PlotInput<'_> {
@@ -203,16 +207,44 @@ pub(crate) fn text_width(s: &str, size: f64) -> f64 {
     s.chars().count() as f64 * size * 0.58
 }
 
-/// An SVG document being written.
+/// An SVG document being written. Text sizes are given as the default
+/// style's pixels and drawn at the style's size ([`Style::font`]).
 pub struct Svg {
     w: f64,
     h: f64,
     body: String,
+    style: Style,
+    /// The smallest text drawn (pixels), for the paper print width.
+    min_font: f64,
+    /// Height of the title band cut off the top when there is no title.
+    untitled_crop: f64,
 }
 
 impl Svg {
-    pub(crate) fn new(w: f64, h: f64) -> Svg {
-        Svg { w, h, body: String::new() }
+    pub(crate) fn new(w: f64, h: f64, style: Style) -> Svg {
+        Svg { w, h, body: String::new(), style, min_font: f64::INFINITY, untitled_crop: 0.0 }
+    }
+
+    pub(crate) fn style(&self) -> Style {
+        self.style
+    }
+
+    /// The figure's title, bold, at (x, y); in a style without titles
+    /// nothing is drawn and the band above `band` (where only the title
+    /// is) is cut off the figure.
+    pub(crate) fn title(&mut self, x: f64, y: f64, s: &str, size: f64, band: f64) {
+        if self.style.titled() {
+            self.text(x, y, s, size, "start", " font-weight=\"bold\"");
+        } else {
+            self.untitled_crop = band;
+        }
+    }
+
+    /// The style's size for `base` pixels, recorded as drawn.
+    fn font_px(&mut self, base: f64) -> f64 {
+        let px = self.style.font(base);
+        self.min_font = self.min_font.min(px);
+        px
     }
 
     pub(crate) fn rect(&mut self, x: f64, y: f64, w: f64, h: f64, fill: &str, extra: &str) {
@@ -323,6 +355,7 @@ impl Svg {
     /// Text; `anchor` is start, middle or end; `extra` more attributes.
     pub(crate) fn text(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, extra: &str) {
         let fill = if extra.contains(" fill=") { String::new() } else { format!(" fill=\"{INK}\"") };
+        let size = self.font_px(size);
         let _ = write!(
             self.body,
             "<text x=\"{}\" y=\"{}\" font-size=\"{}\" text-anchor=\"{anchor}\"{fill}{extra}>{}</text>",
@@ -336,6 +369,7 @@ impl Svg {
     /// Text with a hover tooltip (a shortened name's full form).
     #[allow(clippy::too_many_arguments)] // the coordinates and style of one primitive
     pub(crate) fn text_tip(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, tip: &str) {
+        let size = self.font_px(size);
         let _ = write!(
             self.body,
             "<text x=\"{}\" y=\"{}\" font-size=\"{}\" text-anchor=\"{anchor}\" fill=\"{INK}\"><title>{}</title>{}</text>",
@@ -386,10 +420,27 @@ impl Svg {
         }
         let lx = x + if dashed { 22.0 } else { 16.0 };
         self.text(lx, y, label, 11.0, "start", "");
-        lx - x + text_width(label, 11.0) + 14.0
+        lx - x + self.style.text_width(label, 11.0) + 14.0
     }
 
+    /// The `<svg>` element. Untitled (paper) figures declare their print
+    /// width in inches ([`Style::print_width_in`]) over a viewBox in
+    /// pixels, so a reader (and the tests) can tell the printed text size,
+    /// and carry no title at all.
     pub(crate) fn finish(self, title: &str) -> String {
+        if !self.style.titled() {
+            let (top, h) = (self.untitled_crop, self.h - self.untitled_crop);
+            let print_w = Style::print_width_in(self.w, self.min_font);
+            let print_h = print_w * h / self.w;
+            return format!(
+                "<svg viewBox=\"0 {top} {w} {h}\" width=\"{print_w}in\" height=\"{print_h:.2}in\" data-style=\"{style}\" font-family=\"Helvetica, Arial, sans-serif\" role=\"img\"><rect y=\"{top}\" width=\"{w}\" height=\"{h}\" fill=\"#ffffff\"/>{body}</svg>",
+                top = n(top),
+                w = n(self.w),
+                h = n(h),
+                style = self.style,
+                body = self.body
+            );
+        }
         format!(
             "<svg viewBox=\"0 0 {w} {h}\" width=\"{w}\" height=\"{h}\" font-family=\"Helvetica, Arial, sans-serif\" role=\"img\"><title>{t}</title><rect width=\"{w}\" height=\"{h}\" fill=\"#ffffff\"/>{body}</svg>",
             w = n(self.w),
@@ -406,11 +457,12 @@ fn points(pts: &[(f64, f64)]) -> String {
 
 /// Vertical grid lines and tick labels of a [0, 1] rate axis.
 pub(crate) fn rate_axis_x(svg: &mut Svg, x0: f64, width: f64, top: f64, bottom: f64) {
+    let below = svg.style().space(13.0);
     for k in 0..=4 {
         let v = f64::from(k) / 4.0;
         let x = x0 + v * width;
         svg.line(x, top, x, bottom, GRID, 1.0, None);
-        svg.text(x, bottom + 13.0, &tick(v), 10.0, "middle", "");
+        svg.text(x, bottom + below, &tick(v), 10.0, "middle", "");
     }
 }
 
@@ -420,7 +472,8 @@ pub(crate) fn rate_axis_y(svg: &mut Svg, y0: f64, height: f64, left: f64, right:
         let v = f64::from(k) / 4.0;
         let y = y0 + height - v * height;
         svg.line(left, y, right, y, GRID, 1.0, None);
-        svg.text(left - 4.0, y + 3.5, &tick(v), 10.0, "end", "");
+        let half_cap = svg.style().space(3.5);
+        svg.text(left - 4.0, y + half_cap, &tick(v), 10.0, "end", "");
     }
 }
 
@@ -448,7 +501,7 @@ mod tests {
 
     #[test]
     fn svg_text_is_escaped_and_numbers_compact() {
-        let mut s = Svg::new(10.0, 10.0);
+        let mut s = Svg::new(10.0, 10.0, Style::Default);
         s.text(1.0, 2.0, "<a&b>", 10.0, "start", "");
         s.circle(1.0, 1.0, 2.0, "red", "none", Some("x<y"));
         let out = s.finish("t\"q");

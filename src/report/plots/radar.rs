@@ -4,7 +4,7 @@
 //! the (scenario, tier) cells instead; with fewer than three of those there
 //! is no radar.
 
-use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Svg, text_width};
+use super::{CEILING_COLOR, FLOOR_COLOR, GRID, INK, Plot, PlotInput, Style, Svg};
 use crate::export::f2;
 use crate::report::reference::{CEILING, FLOOR};
 use crate::scenario::{ScenarioKind, Tier};
@@ -49,24 +49,31 @@ fn value_of(input: &PlotInput, model: &str, a: &Axis) -> Option<f64> {
 }
 
 pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
+    let st = input.style;
     let axes = axes(input);
     if axes.len() < 3 {
         return None;
     }
     let models = input.series();
-    let (cell_w, cell_h, cols) = (300.0, 250.0, 3usize);
+    // A paper's larger axis labels need wider cells: two columns, and
+    // labels broken into words (below).
+    let paper = st == Style::Paper;
+    let sp = |x: f64| st.space(x);
+    let (cell_w, cell_h, cols) = if paper { (420.0, 250.0, 2usize) } else { (300.0, 250.0, 3usize) };
     let rows = models.len().div_ceil(cols).max(1);
     let width = cell_w * cols.min(models.len().max(1)) as f64;
-    let mut svg = Svg::new(width.max(420.0), 58.0 + rows as f64 * cell_h);
+    let top = sp(58.0);
+    let mut svg = Svg::new(width.max(sp(420.0)), top + rows as f64 * cell_h, st);
     let title = "Success radar per model";
-    svg.text(10.0, 20.0, title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, title, 14.0, sp(24.0));
     let mut lx = 10.0;
-    lx += svg.legend_item(lx, 42.0, CEILING_COLOR, "expert ceiling (reference)", true);
-    svg.legend_item(lx, 42.0, FLOOR_COLOR, "always_proceed floor (reference)", true);
+    lx += svg.legend_item(lx, sp(42.0), CEILING_COLOR, "expert ceiling (reference)", true);
+    svg.legend_item(lx, sp(42.0), FLOOR_COLOR, "always_proceed floor (reference)", true);
     let k = axes.len();
+    let line_h = st.font(9.5) * 1.1;
     for (i, m) in models.iter().enumerate() {
         let cx = (i % cols) as f64 * cell_w + cell_w / 2.0;
-        let cy = 58.0 + (i / cols) as f64 * cell_h + cell_h / 2.0 + 14.0;
+        let cy = top + (i / cols) as f64 * cell_h + cell_h / 2.0 + sp(14.0);
         let radius = 82.0;
         let point = |j: usize, v: f64| {
             let angle = -std::f64::consts::FRAC_PI_2 + j as f64 * std::f64::consts::TAU / k as f64;
@@ -87,7 +94,21 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
             } else {
                 ("end", -4.0, 4.0)
             };
-            let label = if text_width(&a.label, 9.5) > 120.0 { a.label.replace('_', " ") } else { a.label.clone() };
+            if paper {
+                // One word a line, the block centred on the axis end.
+                let words: Vec<&str> = a.label.split(['_', ' ']).collect();
+                let block = line_h * (words.len() as f64 - 1.0);
+                let first = match (anchor, dy < 0.0) {
+                    ("middle", true) => ly + dy - block,
+                    ("middle", false) => ly + sp(dy),
+                    _ => ly + dy - block / 2.0,
+                };
+                for (w, word) in words.iter().enumerate() {
+                    svg.text(lx + dx, first + w as f64 * line_h, word, 9.5, anchor, "");
+                }
+                continue;
+            }
+            let label = if st.text_width(&a.label, 9.5) > 120.0 { a.label.replace('_', " ") } else { a.label.clone() };
             svg.text(lx + dx, ly + dy, &label, 9.5, anchor, "");
         }
         for (policy, color) in [(CEILING, CEILING_COLOR), (FLOOR, FLOOR_COLOR)] {
@@ -109,7 +130,9 @@ pub(crate) fn plot(input: &PlotInput) -> Option<Plot> {
             }
         }
         // Names are shortened to fit the cell, so panel titles never overlap.
-        svg.text_tip(cx, cy - radius - 26.0, &m.name, 12.0, "middle", &m.label);
+        // Above the top axis's label (several lines in a paper).
+        let above = if paper { line_h * (axes[0].label.split(['_', ' ']).count() as f64 - 1.0) } else { 0.0 };
+        svg.text_tip(cx, cy - radius - sp(26.0) - above, &m.name, 12.0, "middle", &m.label);
     }
     Some(Plot {
         name: "radar".into(),

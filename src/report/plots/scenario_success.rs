@@ -2,7 +2,7 @@
 //! the ranked mean; the expert ceiling and the `always_proceed` floor are
 //! vertical dashed lines in every panel.
 
-use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Series, Svg, rate_axis_x, text_width};
+use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Series, Style, Svg, rate_axis_x};
 use crate::export::{f2, with_ci};
 use crate::report::tables::tiers_label;
 use crate::stats::Interval;
@@ -15,23 +15,31 @@ struct Panel {
     values: Vec<Option<Interval>>,
 }
 
-fn dot_whisker(name: &str, title: &str, caption: String, models: &[Series], panels: &[Panel]) -> Plot {
-    let label_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
-    let (pw, gap, row_h, top) = (230.0, 26.0, 22.0, 68.0);
-    let axis_label = "success rate (dot: estimate; whisker: 95% percentile bootstrap CI)";
+fn dot_whisker(st: Style, name: &str, title: &str, caption: String, models: &[Series], panels: &[Panel]) -> Plot {
+    let label_w = models.iter().map(|m| st.text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
+    // Lengths that hold text grow with it (paper style).
+    let v = |x: f64| st.space(x);
+    let (pw, gap, row_h, top) = (230.0, 26.0, v(22.0), v(68.0));
+    // In a paper the caption says what the whiskers are.
+    let axis_label = if st == Style::Paper {
+        "success rate (whisker: 95% CI)"
+    } else {
+        "success rate (dot: estimate; whisker: 95% percentile bootstrap CI)"
+    };
     // Wide enough for the axis label too (one panel alone is narrower).
-    let width = (label_w + panels.len() as f64 * (pw + gap) + 10.0).max(label_w + text_width(axis_label, 10.0) + 10.0);
-    let height = top + models.len() as f64 * row_h + 40.0;
-    let mut svg = Svg::new(width, height);
-    svg.text(10.0, 18.0, title, 14.0, "start", " font-weight=\"bold\"");
+    let width =
+        (label_w + panels.len() as f64 * (pw + gap) + 10.0).max(label_w + st.text_width(axis_label, 10.0) + 10.0);
+    let height = top + models.len() as f64 * row_h + v(40.0);
+    let mut svg = Svg::new(width, height, st);
+    svg.title(10.0, 18.0, title, 14.0, v(22.0));
     let bottom = top + models.len() as f64 * row_h;
     for (p, panel) in panels.iter().enumerate() {
         let x0 = label_w + p as f64 * (pw + gap);
         svg.rect(x0, top - 6.0, pw, bottom - top + 6.0, "#fafafa", "");
-        svg.text(x0 + pw / 2.0, 34.0, &panel.title, 12.0, "middle", " font-weight=\"bold\"");
+        svg.text(x0 + pw / 2.0, v(34.0), &panel.title, 12.0, "middle", " font-weight=\"bold\"");
         rate_axis_x(&mut svg, x0, pw, top - 6.0, bottom);
         for (value, color, label, dy) in
-            [(panel.ceiling, CEILING_COLOR, "expert", 47.0), (panel.floor, FLOOR_COLOR, "floor", 58.0)]
+            [(panel.ceiling, CEILING_COLOR, "expert", v(47.0)), (panel.floor, FLOOR_COLOR, "floor", v(58.0))]
         {
             if let Some(v) = value {
                 let x = x0 + v.clamp(0.0, 1.0) * pw;
@@ -61,10 +69,10 @@ fn dot_whisker(name: &str, title: &str, caption: String, models: &[Series], pane
         }
     }
     for (i, m) in models.iter().enumerate() {
-        let y = top + (i as f64 + 0.5) * row_h + 4.0;
+        let y = top + (i as f64 + 0.5) * row_h + v(4.0);
         svg.text_tip(label_w - 8.0, y, &m.name, 11.0, "end", &m.label);
     }
-    svg.text(label_w, height - 6.0, axis_label, 10.0, "start", "");
+    svg.text(label_w, height - v(6.0), axis_label, 10.0, "start", "");
     Plot { name: name.into(), title: title.into(), caption, svg: svg.finish(title) }
 }
 
@@ -83,6 +91,7 @@ pub(crate) fn by_scenario(input: &PlotInput) -> Plot {
         })
         .collect();
     dot_whisker(
+        input.style,
         "success_by_scenario",
         &format!("Success by scenario ({})", tiers_label(&lb.tiers)),
         "Per-scenario success with 95% percentile bootstrap CI whiskers, models in leaderboard order; dashed lines: \
@@ -103,6 +112,7 @@ pub(crate) fn ranked_mean(input: &PlotInput) -> Plot {
         values: lb.rows.iter().map(|r| Some(r.average)).collect(),
     };
     dot_whisker(
+        input.style,
         "ranked_mean",
         &format!("Ranked mean success ({})", tiers_label(&lb.tiers)),
         "Average success over scenarios, best first; whiskers: clustered bootstrap 95% CI resampling seeds jointly \

@@ -1,33 +1,36 @@
 //! The tier ladder: success per tier, one line per model, one panel per
 //! scenario, with the expert and `always_proceed` levels of each tier.
 
-use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_y, text_width};
+use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Svg, rate_axis_y};
 use crate::export::with_ci;
 use crate::report::reference::{CEILING, FLOOR};
 use crate::scenario::{ScenarioKind, Tier};
 
 pub(crate) fn plot(input: &PlotInput) -> Plot {
+    let st = input.style;
     let models = input.series();
     let scenarios: Vec<ScenarioKind> =
         ScenarioKind::ALL.into_iter().filter(|s| input.tiers.iter().any(|r| r.scenario == *s)).collect();
     let tiers: Vec<Tier> = Tier::ALL.into_iter().filter(|t| input.tiers.iter().any(|r| r.tier == *t)).collect();
-    let (left, top, pw, ph, gap) = (64.0, 46.0, 220.0, 220.0, 40.0);
+    // Lengths that hold text grow with it (paper style).
+    let v = |x: f64| st.space(x);
+    let (left, top, pw, ph, gap) = (v(64.0), v(46.0), 220.0, 220.0, v(40.0));
     let width = left + scenarios.len().max(1) as f64 * (pw + gap);
     // Legend rows, wrapped as drawn below.
     let mut legend_rows = 1.0;
     let mut lx = 10.0;
     for m in &models {
-        let w = text_width(&m.name, 11.0) + 30.0;
+        let w = st.text_width(&m.name, 11.0) + 30.0;
         if lx + w > width - 10.0 && lx > 10.0 {
             legend_rows += 1.0;
             lx = 10.0;
         }
         lx += w;
     }
-    let height = top + ph + 52.0 + legend_rows * 18.0;
-    let mut svg = Svg::new(width, height);
+    let height = top + ph + v(52.0) + legend_rows * v(18.0);
+    let mut svg = Svg::new(width, height, st);
     let title = "Tier ladder: success by tier";
-    svg.text(10.0, 20.0, title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, title, 14.0, v(24.0));
     let xs = |x0: f64, t: Tier| {
         let i = tiers.iter().position(|&u| u == t).unwrap_or(0) as f64;
         let k = (tiers.len().max(2) - 1) as f64;
@@ -35,14 +38,22 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
     };
     let y = |v: f64| top + ph - v.clamp(0.0, 1.0) * ph;
     let mid = top + ph / 2.0;
-    svg.text(16.0, mid, "success rate", 11.0, "middle", &format!(" transform=\"rotate(-90 16 {})\"", super::n(mid)));
+    let x_label = v(16.0);
+    svg.text(
+        x_label,
+        mid,
+        "success rate",
+        11.0,
+        "middle",
+        &format!(" transform=\"rotate(-90 {} {})\"", super::n(x_label), super::n(mid)),
+    );
     for (p, &s) in scenarios.iter().enumerate() {
         let x0 = left + p as f64 * (pw + gap);
         svg.rect(x0, top, pw, ph, "#fafafa", "");
         rate_axis_y(&mut svg, top, ph, x0, x0 + pw);
-        svg.text(x0 + pw / 2.0, top - 8.0, &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
+        svg.text(x0 + pw / 2.0, top - v(8.0), &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
         for &t in &tiers {
-            svg.text(xs(x0, t), top + ph + 15.0, &format!("tier {t}"), 10.0, "middle", "");
+            svg.text(xs(x0, t), top + ph + v(15.0), &format!("tier {t}"), 10.0, "middle", "");
         }
         for (policy, color) in [(CEILING, CEILING_COLOR), (FLOOR, FLOOR_COLOR)] {
             let pts: Vec<(f64, f64)> =
@@ -71,15 +82,15 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
     }
     // Legend.
     let mut lx = 10.0;
-    let mut ly = top + ph + 40.0;
+    let mut ly = top + ph + v(40.0);
     for m in &models {
-        if lx + text_width(&m.name, 11.0) + 30.0 > width - 10.0 && lx > 10.0 {
+        if lx + st.text_width(&m.name, 11.0) + 30.0 > width - 10.0 && lx > 10.0 {
             lx = 10.0;
-            ly += 18.0;
+            ly += v(18.0);
         }
         lx += svg.legend_item(lx, ly, m.color, &m.name, false);
     }
-    ly += 18.0;
+    ly += v(18.0);
     let mut lx = 10.0;
     lx += svg.legend_item(lx, ly, CEILING_COLOR, "expert ceiling (reference)", true);
     svg.legend_item(lx, ly, FLOOR_COLOR, "always_proceed floor (reference)", true);

@@ -5,7 +5,7 @@
 //! figures draw (see [`crate::report::pick`]).
 
 use super::trajectory::{Scale, maneuver_legend, maneuver_strip, time_axis};
-use super::{COLLISION_COLOR, INK, Plot, PlotInput, SUCCESS_COLOR, Svg, TIMEOUT_COLOR, text_width};
+use super::{COLLISION_COLOR, INK, Plot, PlotInput, SUCCESS_COLOR, Svg, TIMEOUT_COLOR};
 use crate::episode::Outcome;
 use crate::report::pick::Timeline;
 
@@ -34,10 +34,10 @@ fn plot(input: &PlotInput, tl: &Timeline) -> Plot {
     let rows = tl.rows.len().max(1) as f64;
     let bottom = ROW_TOP + rows * ROW_PITCH - (ROW_PITCH - ROW_H);
     let height = bottom + 76.0;
-    let mut svg = Svg::new(WIDTH, height);
+    let mut svg = Svg::new(WIDTH, height, input.style);
     let rollout = if tl.rollout > 0 { format!(" rollout {}", tl.rollout) } else { String::new() };
     let title = format!("Maneuvers per model · {} tier {} seed {}{rollout}", tl.scenario, tl.tier, tl.seed);
-    svg.text(10.0, 20.0, &title, 13.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, &title, 13.0, 24.0);
     let t_end = tl
         .rows
         .iter()
@@ -81,7 +81,7 @@ fn plot(input: &PlotInput, tl: &Timeline) -> Plot {
     for o in [Outcome::Success, Outcome::Collision, Outcome::Timeout] {
         svg.circle(lx + 6.0, ly - 4.0, 6.0, outcome_color(o), INK, None);
         svg.text(lx + 16.0, ly, o.name(), 11.0, "start", "");
-        lx += 16.0 + text_width(o.name(), 11.0) + 14.0;
+        lx += 16.0 + svg.style().text_width(o.name(), 11.0) + 14.0;
     }
     let disposition = tl.rows.iter().flatten().next().map_or(String::new(), |l| l.record.disposition.to_string());
     let caption = format!(

@@ -3,7 +3,7 @@
 //! reference line; and success against guess rate (which models win by
 //! luck), the expert's points hollow grey.
 
-use super::{FLOOR_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_x, rate_axis_y, text_width};
+use super::{FLOOR_COLOR, GRID, INK, Plot, PlotInput, Series, Svg, rate_axis_x, rate_axis_y};
 use crate::export::f2;
 use crate::report::reference::CEILING;
 use crate::report::tables::tiers_label;
@@ -38,21 +38,24 @@ fn lag_axis_max(rows: &[TimingRow]) -> f64 {
 /// Two rows of panels (guess rate, then lag), one column per scenario,
 /// one line per model; the expert's value is a dashed grey line.
 fn panels(input: &PlotInput) -> Plot {
+    let st = input.style;
     let rows = input.timing;
     let models = input.series();
     let scen = scenarios(rows);
-    let label_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
-    let (pw, gap, row_h) = (200.0, 26.0, 20.0);
+    let label_w = models.iter().map(|m| st.text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
+    // Lengths that hold text grow with it (paper style).
+    let sp = |x: f64| st.space(x);
+    let (pw, gap, row_h) = (200.0, 26.0, sp(20.0));
     let block = models.len() as f64 * row_h;
-    let (top1, top2) = (62.0, 62.0 + block + 70.0);
+    let (top1, top2) = (sp(62.0), sp(62.0) + block + sp(70.0));
     let width = label_w + scen.len() as f64 * (pw + gap) + 10.0;
-    let mut svg = Svg::new(width.max(label_w + 420.0), top2 + block + 40.0);
+    let mut svg = Svg::new(width.max(label_w + sp(420.0)), top2 + block + sp(40.0), st);
     let title = format!("Evidence timing by scenario ({})", tiers_label(&input.leaderboard.tiers));
-    svg.text(10.0, 18.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 18.0, &title, 14.0, sp(24.0));
     let lag_max = lag_axis_max(rows);
     for (p, s) in scen.iter().enumerate() {
         let x0 = label_w + p as f64 * (pw + gap);
-        svg.text(x0 + pw / 2.0, 36.0, &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
+        svg.text(x0 + pw / 2.0, sp(36.0), &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
         let cell = |m: &Series| rows.iter().find(|r| r.model == m.label && r.scenario == *s);
         // Guess rate, [0, 1].
         rate_axis_x(&mut svg, x0, pw, top1 - 6.0, top1 + block);
@@ -75,7 +78,7 @@ fn panels(input: &PlotInput) -> Plot {
             let v = lag_max * f64::from(k) / 4.0;
             let x = x0 + f64::from(k) / 4.0 * pw;
             svg.line(x, top2 - 6.0, x, top2 + block, GRID, 1.0, None);
-            svg.text(x, top2 + block + 13.0, &format!("{}", (v * 10.0).round() / 10.0), 10.0, "middle", "");
+            svg.text(x, top2 + block + sp(13.0), &format!("{}", (v * 10.0).round() / 10.0), 10.0, "middle", "");
         }
         let expert = rows.iter().find(|r| r.scenario == *s).and_then(|r| r.expert_evidence_lag);
         reference_line(&mut svg, expert.map(|v| x0 + (v / lag_max).clamp(0.0, 1.0) * pw), top2, block);
@@ -90,20 +93,27 @@ fn panels(input: &PlotInput) -> Plot {
     }
     for (i, m) in models.iter().enumerate() {
         for top in [top1, top2] {
-            svg.text_tip(label_w - 8.0, top + (i as f64 + 0.5) * row_h + 4.0, &m.name, 11.0, "end", &m.label);
+            svg.text_tip(label_w - 8.0, top + (i as f64 + 0.5) * row_h + sp(4.0), &m.name, 11.0, "end", &m.label);
         }
     }
     svg.text(
         label_w,
-        top1 + block + 30.0,
+        top1 + block + sp(30.0),
         "guess rate (committed before the evidence; whisker: 95% Wilson)",
         10.0,
         "start",
         "",
     );
-    svg.text(label_w, top2 + block + 30.0, "evidence-to-commitment lag (turns)", 10.0, "start", "");
-    svg.line(label_w + 300.0, 50.0, label_w + 318.0, 50.0, REFERENCE, 1.6, Some("5 3"));
-    svg.text(label_w + 322.0, 54.0, "expert (reference)", 10.0, "start", &format!(" fill=\"{REFERENCE}\""));
+    svg.text(label_w, top2 + block + sp(30.0), "evidence-to-commitment lag (turns)", 10.0, "start", "");
+    svg.line(label_w + sp(300.0), sp(50.0), label_w + sp(300.0) + 18.0, sp(50.0), REFERENCE, 1.6, Some("5 3"));
+    svg.text(
+        label_w + sp(300.0) + 22.0,
+        sp(54.0),
+        "expert (reference)",
+        10.0,
+        "start",
+        &format!(" fill=\"{REFERENCE}\""),
+    );
     Plot {
         name: "evidence_timing".into(),
         title: title.clone(),
@@ -124,19 +134,22 @@ fn reference_line(svg: &mut Svg, x: Option<f64>, top: f64, block: f64) {
 /// Success against guess rate, one point per (model, scenario): points
 /// high and right won by guessing.
 fn success_vs_guess(input: &PlotInput) -> Plot {
+    let st = input.style;
     let rows = input.timing;
     let models = input.series();
     let scen = scenarios(rows);
-    let (left, top, size) = (56.0, 40.0, 300.0);
-    let legend_w = models.iter().map(|m| text_width(&m.name, 11.0)).fold(140.0, f64::max) + 40.0;
-    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 60.0);
+    let sp = |x: f64| st.space(x);
+    let (left, top, size) = (sp(56.0), sp(40.0), 300.0);
+    let legend_w = models.iter().map(|m| st.text_width(&m.name, 11.0)).fold(sp(140.0), f64::max) + sp(40.0);
+    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + sp(60.0), st);
     let title = format!("Success vs guess rate ({})", tiers_label(&input.leaderboard.tiers));
-    svg.text(10.0, 20.0, &title, 14.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, &title, 14.0, sp(24.0));
     rate_axis_y(&mut svg, top, size, left, left + size);
     rate_axis_x(&mut svg, left, size, top, top + size);
-    svg.text(left + size / 2.0, top + size + 32.0, "guess rate", 11.0, "middle", "");
+    svg.text(left + size / 2.0, top + size + sp(32.0), "guess rate", 11.0, "middle", "");
     let mid = top + size / 2.0;
-    svg.text(14.0, mid, "success", 11.0, "middle", &format!(" transform=\"rotate(-90 14 {mid})\""));
+    let x_label = super::n(sp(14.0));
+    svg.text(sp(14.0), mid, "success", 11.0, "middle", &format!(" transform=\"rotate(-90 {x_label} {mid})\""));
     let at = |g: f64, s: f64| (left + g.clamp(0.0, 1.0) * size, top + size - s.clamp(0.0, 1.0) * size);
     let shape_of = |k: usize, m: &Series| if models.iter().all(|m| m.shape == 0) { k } else { m.shape };
     for (k, s) in scen.iter().enumerate() {
@@ -167,22 +180,22 @@ fn success_vs_guess(input: &PlotInput) -> Plot {
         svg.marker(shape_of(k, m), x + jx, y + jy, 5.0, m.color, INK, Some(&tip));
     }
     svg.close_group();
-    let (lx, mut y) = (left + size + 24.0, top + 6.0);
+    let (lx, mut y) = (left + size + 24.0, top + sp(6.0));
     for m in &models {
-        svg.marker(m.shape, lx + 6.0, y - 4.0, 5.0, m.color, INK, None);
+        svg.marker(m.shape, lx + 6.0, y - sp(4.0), 5.0, m.color, INK, None);
         svg.text_tip(lx + 17.0, y, &m.name, 11.0, "start", &m.label);
-        y += 16.0;
+        y += sp(16.0);
     }
-    y += 8.0;
+    y += sp(8.0);
     if models.iter().all(|m| m.shape == 0) {
         for (k, s) in scen.iter().enumerate() {
-            svg.marker(k, lx + 6.0, y - 4.0, 5.0, "#777", INK, None);
+            svg.marker(k, lx + 6.0, y - sp(4.0), 5.0, "#777", INK, None);
             svg.text(lx + 17.0, y, &s.to_string(), 11.0, "start", "");
-            y += 16.0;
+            y += sp(16.0);
         }
     }
-    svg.circle(lx + 6.0, y + 4.0, 5.0, "none", REFERENCE, None);
-    svg.text(lx + 17.0, y + 8.0, "expert (reference, hollow)", 11.0, "start", "");
+    svg.circle(lx + 6.0, y + sp(4.0), 5.0, "none", REFERENCE, None);
+    svg.text(lx + 17.0, y + sp(8.0), "expert (reference, hollow)", 11.0, "start", "");
     Plot {
         name: "success_vs_guess_rate".into(),
         title: title.clone(),

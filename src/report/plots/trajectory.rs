@@ -4,7 +4,7 @@
 //! panel in the scene text's lateral frame), their speeds over time, and the
 //! ego's maneuver timeline. Road users are named by their scenario role.
 
-use super::{GRID, INK, Plot, PlotInput, Svg, n, text_width};
+use super::{GRID, INK, Plot, PlotInput, Svg, n};
 use crate::episode::{Outcome, TrajectoryPoint};
 use crate::report::drill::Loaded;
 use crate::rundir::record::RolloutRecord;
@@ -31,7 +31,7 @@ pub(crate) fn plots(input: &PlotInput) -> Vec<Plot> {
         .map(|l| {
             let label = &input.data.models[l.model].label;
             let shown = series.iter().find(|s| &s.label == label).map_or(label.as_str(), |s| s.name.as_str());
-            plot(label, shown, l)
+            plot(label, shown, l, input.style)
         })
         .collect()
 }
@@ -145,7 +145,7 @@ const TIME_X: (f64, f64) = (370.0, 850.0);
 /// The figure of one episode: title, plan view on the left; positions
 /// (and each crossing road user's lateral panel), speeds and maneuvers
 /// over a shared time axis on the right; legend.
-fn plot(model: &str, shown: &str, l: &Loaded) -> Plot {
+fn plot(model: &str, shown: &str, l: &Loaded, style: super::Style) -> Plot {
     let r = &l.record;
     let trajectory = r.trajectory.as_deref().unwrap_or(&[]);
     let fig = Figure {
@@ -156,7 +156,7 @@ fn plot(model: &str, shown: &str, l: &Loaded) -> Plot {
     };
     let layout = Layout::new(fig.lateral_users().len());
     let w = 940.0;
-    let mut svg = Svg::new(w, layout.height);
+    let mut svg = Svg::new(w, layout.height, style);
     let title = format!(
         "{shown} · {} tier {} seed {}{}: {} {}, {}",
         r.scenario,
@@ -167,7 +167,7 @@ fn plot(model: &str, shown: &str, l: &Loaded) -> Plot {
         fig.axes.role(0),
         r.outcome.name()
     );
-    svg.text(10.0, 20.0, &title, 13.0, "start", " font-weight=\"bold\"");
+    svg.title(10.0, 20.0, &title, 13.0, 24.0);
     plan_view(&mut svg, &fig);
     let st = Scale::new(0.0, fig.t_end(), TIME_X.0, TIME_X.1);
     positions(&mut svg, &fig, &st, layout.positions);
@@ -205,10 +205,11 @@ impl Labels {
 
     fn put(&mut self, svg: &mut Svg, x: f64, y: f64, text: &str, color: &str) {
         const SIZE: f64 = 9.5;
-        let x1 = x + text_width(text, SIZE);
+        let x1 = x + svg.style().text_width(text, SIZE);
+        let drawn = svg.style().font(SIZE);
         let mut y = y;
-        while self.placed.iter().any(|&(a0, a1, ay)| a0 < x1 && x < a1 && (ay - y).abs() < SIZE + 1.0) {
-            y += self.direction * (SIZE + 1.0);
+        while self.placed.iter().any(|&(a0, a1, ay)| a0 < x1 && x < a1 && (ay - y).abs() < drawn + 1.0) {
+            y += self.direction * (drawn + 1.0);
         }
         self.placed.push((x, x1, y));
         svg.text(x, y, text, SIZE, "start", &format!(" fill=\"{color}\""));
@@ -269,8 +270,8 @@ fn plan_view(svg: &mut Svg, fig: &Figure) {
             svg.circle(x, y, 4.0, "#fff", agent_color(k), None);
             let role = fig.axes.role(k);
             // Inside the plan view: right of the start, or left of it near the right edge.
-            let lx =
-                if x + 7.0 + text_width(&role, 9.5) > px0 + pw { x - 7.0 - text_width(&role, 9.5) } else { x + 7.0 };
+            let role_w = svg.style().text_width(&role, 9.5);
+            let lx = if x + 7.0 + role_w > px0 + pw { x - 7.0 - role_w } else { x + 7.0 };
             labels.put(svg, lx, (y - 6.0).max(py0 + 10.0), &role, agent_color(k));
         }
     }
@@ -473,7 +474,7 @@ pub(crate) fn maneuver_legend(svg: &mut Svg, mut lx: f64, ly: f64) -> f64 {
     }
     svg.line(lx, ly - 4.0, lx + 16.0, ly - 4.0, INK, 2.5, None);
     svg.text(lx + 20.0, ly, "parse error", 11.0, "start", "");
-    lx + 20.0 + text_width("parse error", 11.0) + 14.0
+    lx + 20.0 + svg.style().text_width("parse error", 11.0) + 14.0
 }
 
 fn caption(model: &str, fig: &Figure) -> String {
