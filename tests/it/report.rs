@@ -1,7 +1,8 @@
 //! `negotiator report`: the report's own logic on constructed runs (merge,
 //! duplicate episodes, shards, pass^k exclusion, paired comparison, a
 //! leaderboard snapshot), then end to end on small runs made with `serve`
-//! and `eval`, including the offline HTML rendered by headless Chromium.
+//! and `eval`, including the offline HTML rendered by headless Chromium,
+//! and the paper style's figures (text size at print width, titles, PDFs).
 
 use crate::serve::{Server, negotiator, scratch};
 use negotiator::episode::Outcome;
@@ -932,6 +933,12 @@ fn end_to_end_report_files_and_offline_html() {
         assert_well_formed(&p.display().to_string(), &text);
         assert_eq!(text.matches("http").count(), 1, "{}: only the SVG namespace", p.display());
     }
+    // The same runs in paper style, beside the default report.
+    let paper = root.join("paper");
+    let runs = root.join("runs");
+    let baselines = concat!(env!("CARGO_MANIFEST_DIR"), "/results/baselines");
+    ok(report_cmd(&paper, &[runs.to_str().unwrap(), "--baselines", baselines, "--style", "paper", "-q"]));
+    let figures = paper_style_figures(&dir.join("plots"), &paper.join("plots"));
 
     // report.html: one file, nothing external.
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
@@ -1026,16 +1033,148 @@ fn end_to_end_report_files_and_offline_html() {
         dom.contains("<div>pedestrian: ") && dom.contains(" m from the near kerb, "),
         "the turn rows name the role"
     );
+    render_figures(chromium, &root, &figures);
+}
+
+/// Attribute `name`'s value in the first `<svg ...>` tag of `svg`.
+fn svg_attr<'a>(svg: &'a str, name: &str) -> Option<&'a str> {
+    let tag = &svg[svg.find("<svg ")?..];
+    let tag = &tag[..tag.find('>')?];
+    let at = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+    Some(&tag[at..at + tag[at..].find('"')?])
+}
+
+/// Every `font-size` in `svg`, in viewBox units.
+fn font_sizes(svg: &str) -> Vec<f64> {
+    svg.split(" font-size=\"").skip(1).map(|s| s[..s.find('"').unwrap()].parse().unwrap()).collect()
+}
+
+/// The paper-style report's figures against the default one's (both from
+/// the same runs): the same figures; in paper style every text at least
+/// 8 pt when printed at the declared width (3.3 in or 7 in), no title, and
+/// a PDF of each beside it, its page the print size; in the default style,
+/// the titles. Returns (style, name, SVG text) of every figure of both.
+fn paper_style_figures(default_dir: &Path, paper_dir: &Path) -> Vec<(&'static str, String, String)> {
+    let stems = |dir: &Path, ext: &str| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == ext))
+            .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let names = stems(default_dir, "svg");
+    assert!(names.len() >= 8, "{names:?}");
+    assert_eq!(stems(paper_dir, "svg"), names, "paper style draws the same figures");
+    assert_eq!(stems(paper_dir, "pdf"), names, "a PDF beside each paper SVG");
+    assert!(stems(default_dir, "pdf").is_empty(), "no PDF in the default style");
+    let mut figures = Vec::new();
+    for name in &names {
+        let default = std::fs::read_to_string(default_dir.join(format!("{name}.svg"))).unwrap();
+        let paper = std::fs::read_to_string(paper_dir.join(format!("{name}.svg"))).unwrap();
+        assert_well_formed(name, &paper);
+        // Titles: the default figure's title (its <title> and the bold heading) is nowhere in the paper one.
+        let title = &default[default.find("<title>").unwrap() + 7..default.find("</title>").unwrap()];
+        assert!(
+            default.matches(&format!(">{title}</text>")).count() == 1,
+            "{name}: no title drawn in the default style"
+        );
+        assert!(!paper.contains(title) && !paper.contains("<svg><title>"), "{name}: a title in paper style");
+        // Text size at print width.
+        let width = svg_attr(&paper, "width").unwrap_or_else(|| panic!("{name}: no width"));
+        let inches: f64 =
+            width.strip_suffix("in").unwrap_or_else(|| panic!("{name}: width {width} not in inches")).parse().unwrap();
+        assert!(inches == 3.3 || inches == 7.0, "{name}: print width {inches} in is neither a column nor two");
+        let view: Vec<f64> = svg_attr(&paper, "viewBox").unwrap().split(' ').map(|v| v.parse().unwrap()).collect();
+        let sizes = font_sizes(&paper);
+        assert!(!sizes.is_empty(), "{name}: no text");
+        let smallest_pt = sizes.iter().copied().fold(f64::INFINITY, f64::min) * inches * 72.0 / view[2];
+        assert!(smallest_pt >= 8.0, "{name}: text of {smallest_pt:.1} pt at {inches} in");
+        // The PDF: a real one, one page of the print size, the text in an embedded font.
+        let pdf = std::fs::read(paper_dir.join(format!("{name}.pdf"))).unwrap();
+        assert!(pdf.starts_with(b"%PDF-") && pdf.len() > 4000, "{name}.pdf: {} bytes", pdf.len());
+        let body = String::from_utf8_lossy(&pdf);
+        let mb = &body[body.find("/MediaBox [").unwrap() + 11..];
+        let mb: Vec<f64> = mb[..mb.find(']').unwrap()].split_whitespace().map(|v| v.parse().unwrap()).collect();
+        assert!((mb[2] - mb[0] - inches * 72.0).abs() < 0.5, "{name}.pdf: page {mb:?} for {inches} in");
+        assert!(body.contains("FigureSans-Regular") && body.contains("/FontFile2"), "{name}.pdf: no embedded font");
+        figures.push(("default", name.clone(), default));
+        figures.push(("paper", name.clone(), paper));
+    }
+    figures
+}
+
+/// Every figure of both styles on one page, rendered by headless Chromium
+/// in one launch: a script measures each figure as drawn (its width, each
+/// text's box and computed size) and writes the result into the DOM. Every
+/// figure must be drawn with all its text inside it; in paper style every
+/// text at least 8 pt at the figure's print width.
+fn render_figures(chromium: &Path, root: &Path, figures: &[(&str, String, String)]) {
+    let mut page = String::from("<!doctype html><html><head><meta charset=\"utf-8\"></head><body>");
+    for (style, name, svg) in figures {
+        page.push_str(&format!("<div class=\"fig\" data-name=\"{style}/{name}\">{svg}</div>"));
+    }
+    page.push_str(
+        r#"<script>
+for (const fig of document.querySelectorAll('.fig')) {
+  const svg = fig.querySelector('svg');
+  const box = svg.getBoundingClientRect();
+  const scale = box.width / svg.viewBox.baseVal.width;
+  let texts = 0, drawn = 0, minPt = 1e9;
+  const outside = [];
+  for (const t of svg.querySelectorAll('text')) {
+    texts++;
+    const r = t.getBoundingClientRect();
+    if (r.width > 0 && r.height > 0) drawn++;
+    minPt = Math.min(minPt, parseFloat(getComputedStyle(t).fontSize) * scale * 0.75);
+    if (r.left < box.left - 2 || r.right > box.right + 2 || r.top < box.top - 2 || r.bottom > box.bottom + 2)
+      outside.push(t.textContent);
+  }
+  fig.setAttribute('data-result', [Math.round(box.width), texts, drawn, minPt.toFixed(2), outside.join('|')].join(';'));
+}
+document.body.setAttribute('data-done', 'yes');
+</script></body></html>"#,
+    );
+    let file = root.join("figures.html");
+    std::fs::write(&file, page).unwrap();
+    let dom = Command::new(chromium)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
+        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", root.join("chromium-profile").display()))
+        .arg(format!("file://{}", file.display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(dom.contains("data-done=\"yes\""), "the figure page did not run: {}", &dom[..dom.len().min(300)]);
+    for (style, name, _) in figures {
+        let key = format!("data-name=\"{style}/{name}\" data-result=\"");
+        let at = dom.find(&key).unwrap_or_else(|| panic!("{style}/{name}: not measured")) + key.len();
+        let result: Vec<&str> = dom[at..at + dom[at..].find('"').unwrap()].split(';').collect();
+        let (width, texts, drawn, min_pt) = (
+            result[0].parse::<f64>().unwrap(),
+            result[1].parse::<usize>().unwrap(),
+            result[2].parse::<usize>().unwrap(),
+            result[3].parse::<f64>().unwrap(),
+        );
+        assert!(width > 100.0 && texts > 0 && drawn == texts, "{style}/{name}: {result:?}");
+        assert_eq!(result[4], "", "{style}/{name}: text outside the figure");
+        if *style == "paper" {
+            assert!(min_pt >= 7.99, "{style}/{name}: text of {min_pt} pt as rendered at print width");
+        }
+    }
 }
 
 #[test]
 fn bad_input_is_a_one_line_usage_error() {
     let root = scratch("report-bad");
-    let cases: [(Vec<String>, &str); 4] = [
+    let cases: [(Vec<String>, &str); 5] = [
         (vec![root.join("absent").display().to_string()], "no such directory"),
         (vec![root.display().to_string()], "not a run directory"),
         (vec![root.display().to_string(), "--tiers".into(), "4".into()], "--tiers"),
         (vec![root.display().to_string(), "--resamples".into(), "100".into()], "--resamples"),
+        (vec![root.display().to_string(), "--style".into(), "poster".into()], "--style: unknown style 'poster'"),
     ];
     std::fs::create_dir_all(root.join("empty")).unwrap();
     for (args, expected) in cases {
