@@ -79,4 +79,14 @@ mod tests {
             svg2pdf::to_pdf(&tree, svg2pdf::ConversionOptions::default(), svg2pdf::PageOptions { dpi: 96.0 }).unwrap();
         assert!(!String::from_utf8_lossy(&empty).contains("/FontFile"), "text without a font");
     }
+
+    #[test]
+    fn characters_outside_the_bundled_subset_do_not_fail_the_pdf() {
+        // A model name in another script: its glyphs are missing from the PDF (not from the SVG), the rest is set.
+        let svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 300 40\" width=\"3.3in\" height=\"0.44in\" \
+                   font-family=\"Helvetica, Arial, sans-serif\"><text x=\"10\" y=\"20\" font-size=\"15\">\u{6a21}\u{578b}-7b \
+                   \u{2192} ok</text></svg>";
+        let pdf = from_svg(svg).unwrap();
+        assert!(pdf.starts_with(b"%PDF-") && String::from_utf8_lossy(&pdf).contains("FigureSans-Regular"));
+    }
 }

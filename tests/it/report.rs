@@ -1106,6 +1106,37 @@ fn paper_style_figures(default_dir: &Path, paper_dir: &Path) -> Vec<(&'static st
     figures
 }
 
+#[test]
+fn paper_figures_of_many_long_named_models_still_print_at_8_pt() {
+    // Nine models whose names are shortened to 24 characters: the widest labels a figure gets, and shapes vary.
+    let root = scratch("report-paper-wide");
+    let all = ScenarioKind::ALL;
+    for i in 0..9 {
+        let model = format!("accounts/fireworks/models/llama-v3p1-405b-instruct-{i}");
+        let h = hash(&model, None);
+        let lines: Vec<String> = all
+            .iter()
+            .flat_map(|&s| (0..6).map(move |seed| (s, seed)))
+            .map(|(s, seed)| {
+                let outcome = if (seed + i) % 3 == 0 { Outcome::Collision } else { Outcome::Success };
+                line(&model, &h, s, 1, seed, 0, outcome)
+            })
+            .collect();
+        write_run(&root.join(format!("m{i}")), &RunSpec { seeds: 6, scenarios: &all, ..spec(&model) }, &lines);
+    }
+    let paper = ReportOptions { style: report::plots::Style::Paper, ..opts() };
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &paper).unwrap();
+    let plots = &built.report.plots;
+    assert!(plots.len() >= 8 && plots.iter().any(|p| p.name == "success_by_scenario"));
+    for p in plots {
+        let inches: f64 = svg_attr(&p.svg, "width").and_then(|w| w.strip_suffix("in")).unwrap().parse().unwrap();
+        let view: Vec<f64> = svg_attr(&p.svg, "viewBox").unwrap().split(' ').map(|v| v.parse().unwrap()).collect();
+        let smallest = font_sizes(&p.svg).into_iter().fold(f64::INFINITY, f64::min);
+        let pt = smallest * inches * 72.0 / view[2];
+        assert!((inches == 3.3 || inches == 7.0) && pt >= 8.0, "{}: {pt:.2} pt at {inches} in", p.name);
+    }
+}
+
 /// Every figure of both styles on one page, rendered by headless Chromium
 /// in one launch: a script measures each figure as drawn (its width, each
 /// text's box and computed size) and writes the result into the DOM. Every

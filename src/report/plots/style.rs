@@ -57,6 +57,15 @@ impl Style {
         base * self.font(11.0) / 11.0
     }
 
+    /// The widest figure (pixels) whose text still prints at
+    /// [`MIN_PRINT_PT`] at the widest print width; `None`: no limit.
+    pub fn max_width(self) -> Option<f64> {
+        match self {
+            Style::Default => None,
+            Style::Paper => Some(PAPER_MIN_PX * PRINT_WIDTHS_IN[PRINT_WIDTHS_IN.len() - 1] * 72.0 / MIN_PRINT_PT),
+        }
+    }
+
     /// Does a figure carry its title?
     pub fn titled(self) -> bool {
         self == Style::Default
@@ -121,6 +130,8 @@ mod tests {
         assert_eq!(Style::print_width_in(1000.0, 15.0), 7.0);
         assert_eq!("paper".parse::<Style>().unwrap(), Style::Paper);
         assert_eq!("default".parse::<Style>().unwrap(), Style::Default);
+        assert_eq!(Style::Paper.max_width(), Some(945.0));
+        assert_eq!(Style::print_width_in(945.0, Style::Paper.font(9.0)), 7.0);
         assert!("Paper".parse::<Style>().unwrap_err().to_string().contains("'Paper'"));
     }
 }
