@@ -99,6 +99,24 @@ fn eval_against_the_served_expert_reproduces_the_ideal_observer_exactly() {
     assert!(over_time.contains("evidence turn") && over_time.contains("ideal observer"));
     let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
     assert!(html.contains("\"p\":true") && html.contains("\"ib\":"), "drill-down beliefs");
+    // Paper style: the belief figures too print at 8 pt or more, untitled, each with its PDF, and render in
+    // headless Chromium with every text inside the figure.
+    let paper = out.join("report-paper");
+    let status = negotiator()
+        .args(["report", "--quiet", "--style", "paper", "--out"])
+        .arg(&paper)
+        .arg(out.join("run"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let figures = crate::report::paper_style_figures(&rep.join("plots"), &paper.join("plots"));
+    assert!(figures.iter().any(|(style, name, _)| *style == "paper" && name == "belief_over_time"));
+    let chromium = Path::new("/usr/bin/chromium");
+    if chromium.exists() {
+        crate::report::render_figures(chromium, &out, &figures);
+    } else {
+        eprintln!("skipped: chromium not installed (/usr/bin/chromium); the belief figures were not rendered");
+    }
     for cell in summary_cells(&out.join("run")) {
         let b = &cell["belief"];
         for (stated, ideal) in [("brier_before", "ideal_brier_before"), ("brier_after", "ideal_brier_after")] {

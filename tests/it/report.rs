@@ -1054,7 +1054,7 @@ fn font_sizes(svg: &str) -> Vec<f64> {
 /// 8 pt when printed at the declared width (3.3 in or 7 in), no title, and
 /// a PDF of each beside it, its page the print size; in the default style,
 /// the titles. Returns (style, name, SVG text) of every figure of both.
-fn paper_style_figures(default_dir: &Path, paper_dir: &Path) -> Vec<(&'static str, String, String)> {
+pub(crate) fn paper_style_figures(default_dir: &Path, paper_dir: &Path) -> Vec<(&'static str, String, String)> {
     let stems = |dir: &Path, ext: &str| -> Vec<String> {
         let mut v: Vec<String> = std::fs::read_dir(dir)
             .unwrap()
@@ -1142,7 +1142,7 @@ fn paper_figures_of_many_long_named_models_still_print_at_8_pt() {
 /// text's box and computed size) and writes the result into the DOM. Every
 /// figure must be drawn with all its text inside it; in paper style every
 /// text at least 8 pt at the figure's print width.
-fn render_figures(chromium: &Path, root: &Path, figures: &[(&str, String, String)]) {
+pub(crate) fn render_figures(chromium: &Path, root: &Path, figures: &[(&str, String, String)]) {
     let mut page = String::from("<!doctype html><html><head><meta charset=\"utf-8\"></head><body>");
     for (style, name, svg) in figures {
         page.push_str(&format!("<div class=\"fig\" data-name=\"{style}/{name}\">{svg}</div>"));

@@ -33,23 +33,33 @@ fn reliability(input: &PlotInput) -> Option<Plot> {
     if models.is_empty() {
         return None;
     }
-    let (left, top, size) = (56.0, 40.0, 320.0);
-    let legend_w = models.iter().map(|(m, _)| st.text_width(&m.name, 11.0)).fold(170.0, f64::max) + 30.0;
-    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + 56.0, st);
+    // Lengths that hold text grow with it (paper style).
+    let sp = |x: f64| st.space(x);
+    let (left, top, size) = (sp(56.0), sp(40.0), 320.0);
+    let legend_label =
+        |m: &Series, s: &crate::belief::BeliefSummary| format!("{} (ECE {})", m.name, f2(s.calibration_error));
+    // In a paper the legend is as wide as its longest label (marker, name and ECE).
+    let legend_w = if st == super::Style::Paper {
+        models.iter().map(|(m, s)| 17.0 + st.text_width(&legend_label(m, s), 11.0) + 10.0).fold(sp(200.0), f64::max)
+    } else {
+        models.iter().map(|(m, _)| st.text_width(&m.name, 11.0)).fold(170.0, f64::max) + 30.0
+    };
+    let mut svg = Svg::new(left + size + 30.0 + legend_w, top + size + sp(56.0), st);
     let title = "Belief calibration (reliability diagram, every turn)".to_string();
     svg.title(10.0, 20.0, &title, 14.0, 24.0);
     rate_axis_y(&mut svg, top, size, left, left + size);
     rate_axis_x(&mut svg, left, size, top, top + size);
     svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
-    svg.text(left + size / 2.0, top + size + 30.0, "stated belief (bin mean)", 11.0, "middle", "");
+    svg.text(left + size / 2.0, top + size + sp(30.0), "stated belief (bin mean)", 11.0, "middle", "");
     let mid = top + size / 2.0;
+    let x_label = super::n(sp(14.0));
     svg.text(
-        14.0,
+        sp(14.0),
         mid,
         "observed: the other let the ego pass",
         11.0,
         "middle",
-        &format!(" transform=\"rotate(-90 14 {mid})\""),
+        &format!(" transform=\"rotate(-90 {x_label} {mid})\""),
     );
     let at = |b: f64, o: f64| (left + b.clamp(0.0, 1.0) * size, top + size - o.clamp(0.0, 1.0) * size);
     for (m, summary) in &models {
@@ -70,15 +80,14 @@ fn reliability(input: &PlotInput) -> Option<Plot> {
         }
     }
     let lx = left + size + 24.0;
-    let mut y = top + 6.0;
+    let mut y = top + sp(6.0);
     for (m, summary) in &models {
-        svg.marker(m.shape, lx + 6.0, y - 4.0, 5.0, m.color, INK, None);
-        let label = format!("{} (ECE {})", m.name, f2(summary.calibration_error));
-        svg.text_tip(lx + 17.0, y, &label, 11.0, "start", &m.label);
-        y += 16.0;
+        svg.marker(m.shape, lx + 6.0, y - sp(4.0), 5.0, m.color, INK, None);
+        svg.text_tip(lx + 17.0, y, &legend_label(m, summary), 11.0, "start", &m.label);
+        y += sp(16.0);
     }
-    svg.line(lx, y + 4.0, lx + 18.0, y + 4.0, INK, 1.2, Some("6 4"));
-    svg.text(lx + 24.0, y + 8.0, "perfectly calibrated", 11.0, "start", "");
+    svg.line(lx, y + sp(4.0), lx + 18.0, y + sp(4.0), INK, 1.2, Some("6 4"));
+    svg.text(lx + 24.0, y + sp(8.0), "perfectly calibrated", 11.0, "start", "");
     Some(Plot {
         name: "belief_reliability".into(),
         title: title.clone(),
@@ -115,21 +124,23 @@ fn over_time(input: &PlotInput) -> Option<Plot> {
         return None;
     }
     let series = input.series();
+    let sp = |x: f64| st.space(x);
     let (pw, ph, gap) = (330.0, 170.0, 24.0);
     let cols = episodes.len().min(2);
     let rows = episodes.len().div_ceil(2);
-    let top0 = 56.0;
-    let mut svg = Svg::new(20.0 + cols as f64 * (pw + 60.0 + gap), top0 + rows as f64 * (ph + 70.0) + 10.0, st);
+    let (top0, below) = (sp(56.0), sp(70.0));
+    let mut svg = Svg::new(20.0 + cols as f64 * (pw + 60.0 + gap), top0 + rows as f64 * (ph + below) + 10.0, st);
     let title = "Belief over time: stated, ideal observer, evidence turn".to_string();
     svg.title(10.0, 20.0, &title, 14.0, 24.0);
     let mut x = 10.0;
-    x += svg.legend_item(x, 40.0, "#555", "stated belief (model colour)", false);
-    x += svg.legend_item(x, 40.0, CEILING_COLOR, "ideal observer", true);
-    svg.line(x, 36.0, x + 18.0, 36.0, "#c00", 1.5, Some("2 2"));
-    svg.text(x + 22.0, 40.0, "evidence turn", 11.0, "start", "");
+    let ly = sp(40.0);
+    x += svg.legend_item(x, ly, "#555", "stated belief (model colour)", false);
+    x += svg.legend_item(x, ly, CEILING_COLOR, "ideal observer", true);
+    svg.line(x, ly - 4.0, x + 18.0, ly - 4.0, "#c00", 1.5, Some("2 2"));
+    svg.text(x + 22.0, ly, "evidence turn", 11.0, "start", "");
     for (k, l) in episodes.iter().enumerate() {
         let left = 60.0 + (k % 2) as f64 * (pw + 60.0 + gap);
-        let top = top0 + 24.0 + (k / 2) as f64 * (ph + 70.0);
+        let top = top0 + sp(24.0) + (k / 2) as f64 * (ph + below);
         let label = &input.data.models[l.model].label;
         let color = series.iter().find(|s| &s.label == label).map_or("#555", |s| s.color);
         panel(&mut svg, l, label, color, (left, top, pw, ph));
@@ -166,9 +177,9 @@ fn panel(svg: &mut Svg, l: &Loaded, label: &str, color: &str, (left, top, w, h):
     for turn in (1..=last).filter(|t| t % 5 == 0 || *t == 1) {
         let (x, _) = at(turn, 0.0);
         svg.line(x, top, x, top + h, GRID, 1.0, None);
-        svg.text(x, top + h + 13.0, &turn.to_string(), 10.0, "middle", "");
+        svg.text(x, top + h + svg.style().space(13.0), &turn.to_string(), 10.0, "middle", "");
     }
-    svg.text(left + w / 2.0, top + h + 28.0, "turn", 10.0, "middle", "");
+    svg.text(left + w / 2.0, top + h + svg.style().space(28.0), "turn", 10.0, "middle", "");
     if let Some(e) = r.timing.evidence_turn.filter(|&e| e <= last) {
         let (x, _) = at(e, 0.0);
         svg.line(x, top, x, top + h, "#c00", 1.5, Some("2 2"));
