@@ -19,7 +19,7 @@ fn dot_whisker(st: Style, name: &str, title: &str, caption: String, models: &[Se
     let label_w = models.iter().map(|m| st.text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
     // Lengths that hold text grow with it (paper style).
     let v = |x: f64| st.space(x);
-    let (gap, row_h, top) = (26.0, v(22.0), v(68.0));
+    let (gap, row_h, top) = (v(26.0), v(22.0), v(68.0));
     // Panels narrow (down to 120 px) so that long names still leave the figure printable.
     let pw =
         st.max_width().map_or(230.0, |max| ((max - label_w - 10.0) / panels.len() as f64 - gap).clamp(120.0, 230.0));

@@ -45,7 +45,7 @@ fn panels(input: &PlotInput) -> Plot {
     let label_w = models.iter().map(|m| st.text_width(&m.name, 11.0)).fold(60.0, f64::max) + 12.0;
     // Lengths that hold text grow with it (paper style).
     let sp = |x: f64| st.space(x);
-    let (pw, gap, row_h) = (200.0, 26.0, sp(20.0));
+    let (pw, gap, row_h) = (200.0, sp(26.0), sp(20.0));
     let block = models.len() as f64 * row_h;
     let (top1, top2) = (sp(62.0), sp(62.0) + block + sp(70.0));
     let width = label_w + scen.len() as f64 * (pw + gap) + 10.0;
