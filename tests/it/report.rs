@@ -498,7 +498,8 @@ fn attr<'a>(svg: &'a str, at: usize, name: &str) -> &'a str {
 /// Every unrotated text of `svg` lies inside its viewBox width, at the
 /// figures' width estimate (0.58 × font size per character).
 fn assert_texts_fit(name: &str, svg: &str) {
-    let width: f64 = svg.split("viewBox=\"0 0 ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    let view_box = svg.split("viewBox=\"").nth(1).unwrap();
+    let width: f64 = view_box.split(' ').nth(2).unwrap().parse().unwrap();
     for (at, _) in svg.match_indices("<text ") {
         let tag = &svg[at..at + svg[at..].find('>').unwrap()];
         if tag.contains("transform=") {
@@ -683,9 +684,27 @@ fn episode_flag_selects_exactly_the_named_episodes() {
             "timeline_yield_standoff_t1_s3_r0",
         ]
     );
-    for p in built.report.plots.iter().filter(|p| p.name.starts_with("trajectory_") || p.name.starts_with("timeline_"))
-    {
-        assert_texts_fit(&p.name, &p.svg);
+    // Both styles: the paper style's larger text still fits (names, outcomes, end-of-line labels).
+    let paper = ReportOptions { style: negotiator::report::plots::Style::Paper, ..o.clone() };
+    let paper = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &paper).unwrap();
+    for p in built.report.plots.iter().chain(&paper.report.plots) {
+        if p.name.starts_with("trajectory_") || p.name.starts_with("timeline_") {
+            assert_texts_fit(&p.name, &p.svg);
+        }
+        if p.name.starts_with("timeline_") {
+            // Each model's name ends left of its first maneuver cell.
+            for m in ["alpha", "beta", LONG] {
+                let shown = if m == LONG { "accounts/fir\u{2026}5b-instruct" } else { m };
+                let name = p.svg.find(&format!("><title>{m}</title>{shown}</text>")).unwrap();
+                let name = p.svg[..name].rfind("<text ").unwrap();
+                let size: f64 = attr(&p.svg, name, "font-size").parse().unwrap();
+                let right =
+                    attr(&p.svg, name, "x").parse::<f64>().unwrap() + shown.chars().count() as f64 * size * 0.58;
+                let cell = p.svg[..p.svg.find(&format!("<title>{m}: turn 1 ")).unwrap()].rfind("<rect ").unwrap();
+                let left: f64 = attr(&p.svg, cell, "x").parse().unwrap();
+                assert!(right <= left, "{}: {m}'s name ends at {right:.0}, its strip starts at {left}", p.name);
+            }
+        }
     }
     // Their transcripts are in the drill-down, first.
     let drill = serde_json::to_value(&built.drill).unwrap();

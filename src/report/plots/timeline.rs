@@ -13,7 +13,9 @@ use crate::report::pick::Timeline;
 const ROW_TOP: f64 = 50.0;
 const ROW_H: f64 = 20.0;
 const ROW_PITCH: f64 = 30.0;
-/// The strips' time axis (x); model names left of it, outcomes right.
+/// The strips' time axis (x) at the least: model names left of it,
+/// outcomes right; it starts later and ends earlier when the names and
+/// outcomes need the room at the style's text size.
 const STRIP_X: (f64, f64) = (214.0, 780.0);
 const WIDTH: f64 = 940.0;
 
@@ -47,24 +49,21 @@ fn plot(input: &PlotInput, tl: &Timeline) -> Plot {
             traj_end.max(l.record.turns.len() as f64 * 0.5)
         })
         .fold(0.5, f64::max);
-    let st = Scale::new(0.0, t_end, STRIP_X.0, STRIP_X.1);
+    let style = svg.style();
+    let widest_name = series.iter().map(|s| style.text_width(&s.name, 11.0)).fold(0.0, f64::max);
+    let widest_mark = style.text_width("collision (rollout 10)", 10.0);
+    let st =
+        Scale::new(0.0, t_end, STRIP_X.0.max(26.0 + widest_name + 12.0), STRIP_X.1.min(WIDTH - 26.0 - widest_mark));
     time_axis(&mut svg, &st, ROW_TOP - 6.0, bottom + 4.0);
     for (m, row) in tl.rows.iter().enumerate() {
         let y0 = ROW_TOP + m as f64 * ROW_PITCH;
         let label = &input.data.models[m].label;
-        let style = series.iter().find(|s| &s.label == label);
-        let (shown, color, shape) = style.map_or((label.as_str(), INK, 0), |s| (s.name.as_str(), s.color, s.shape));
+        let drawn = series.iter().find(|s| &s.label == label);
+        let (shown, color, shape) = drawn.map_or((label.as_str(), INK, 0), |s| (s.name.as_str(), s.color, s.shape));
         svg.marker(shape, 16.0, y0 + ROW_H / 2.0, 4.5, color, INK, Some(label));
         svg.text_tip(26.0, y0 + ROW_H / 2.0 + 4.0, shown, 11.0, "start", label);
         let Some(l) = row else {
-            svg.text(
-                STRIP_X.0 + 4.0,
-                y0 + ROW_H / 2.0 + 4.0,
-                "no episode of this seed",
-                10.0,
-                "start",
-                " fill=\"#777\"",
-            );
+            svg.text(st.p0 + 4.0, y0 + ROW_H / 2.0 + 4.0, "no episode of this seed", 10.0, "start", " fill=\"#777\"");
             continue;
         };
         let r = &l.record;

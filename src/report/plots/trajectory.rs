@@ -139,7 +139,8 @@ impl Layout {
     }
 }
 
-/// Left and right ends of the time axis; end-of-line labels go right of it.
+/// Left end and rightmost right end of the time axis; end-of-line labels
+/// go right of it (it ends earlier when they need the room).
 const TIME_X: (f64, f64) = (370.0, 850.0);
 
 /// The figure of one episode: title, plan view on the left; positions
@@ -169,7 +170,11 @@ fn plot(model: &str, shown: &str, l: &Loaded, style: super::Style) -> Plot {
     );
     svg.title(10.0, 20.0, &title, 13.0, 24.0);
     plan_view(&mut svg, &fig);
-    let st = Scale::new(0.0, fig.t_end(), TIME_X.0, TIME_X.1);
+    // Room on the right for the end-of-line labels (roles, the frame's lines, "ego") at the style's size.
+    let labels = fig.lateral_users().into_iter().flat_map(|(_, f)| f.marks.map(|m| m.1));
+    let labels = labels.chain((0..fig.others).map(|k| fig.axes.road_users.get(k).map_or("road user 10", |u| u.role)));
+    let widest = labels.chain(["ego"]).map(|l| svg.style().text_width(l, 9.5)).fold(0.0, f64::max);
+    let st = Scale::new(0.0, fig.t_end(), TIME_X.0, TIME_X.1.min(w - 10.0 - widest));
     positions(&mut svg, &fig, &st, layout.positions);
     for ((k, frame), &extent) in fig.lateral_users().into_iter().zip(&layout.lateral) {
         lateral_panel(&mut svg, &fig, &st, k, &frame, extent);
@@ -449,10 +454,11 @@ pub(crate) fn time_axis(svg: &mut Svg, st: &Scale, top: f64, bottom: f64) {
     while tv <= t_end + 1e-9 {
         let x = st.at(tv);
         svg.line(x, top, x, bottom, GRID, 0.6, None);
-        svg.text(x, bottom + 14.0, &n(tv), 9.5, "middle", "");
+        svg.text(x, bottom + svg.style().space(14.0), &n(tv), 9.5, "middle", "");
         tv += step;
     }
-    svg.text((st.p0 + st.p1) / 2.0, bottom + 28.0, "time (s)", 10.0, "middle", "");
+    let below = svg.style().space(28.0);
+    svg.text((st.p0 + st.p1) / 2.0, bottom + below, "time (s)", 10.0, "middle", "");
 }
 
 fn legend(svg: &mut Svg, fig: &Figure, ly: f64) {
