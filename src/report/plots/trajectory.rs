@@ -449,7 +449,8 @@ pub(crate) fn maneuver_strip(svg: &mut Svg, r: &RolloutRecord, st: &Scale, (my0,
 /// Vertical grid lines through every right-hand panel, labelled below.
 pub(crate) fn time_axis(svg: &mut Svg, st: &Scale, top: f64, bottom: f64) {
     let t_end = st.hi;
-    let step = nice_step(t_end);
+    // About six ticks (the value axes' four are too few across a wide time axis).
+    let step = nice_step(t_end / 1.5);
     let mut tv = 0.0;
     while tv <= t_end + 1e-9 {
         let x = st.at(tv);
