@@ -1,15 +1,40 @@
 //! `contested_merge`: an on-ramp merge (a coordination game). The lane car
 //! alongside the ego `makes_room` (drops back to open a gap ahead of itself)
-//! or is `committed` (holds its speed; in tier 3 it first opens the gap and
-//! closes it when the ego commits). A second car follows the lane car, so
-//! merging behind is right only when the lane car goes first.
+//! or is `committed` (holds the lane; in tier 3 it first opens the gap like a
+//! car making room and closes it when the ego's motion shows it commits). A
+//! second car follows the lane car, so merging behind is right only when the
+//! lane car goes first.
+//!
+//! Mechanisms (every reaction is a function of the ego's kinematic state):
+//! - a car holding the lane keeps an ego that is alongside on the ramp out:
+//!   it drives up to `deny_extra_mps` faster than its cruise, matching the
+//!   ego, so a racing ego arrives alongside it at the merge point;
+//! - a car making room drops back behind the ego only while the ego keeps
+//!   pace (drives on and is due at the merge point no later than the lane
+//!   car's own cruise arrival plus `pace_tolerance_s`). For an ego that hangs
+//!   back it waits level with the ego's rear (overlapping it by
+//!   `WAIT_OVERLAP_M`), and once the ego has hung back for its patience
+//!   (drawn per seed) it takes its turn: it draws level and passes the ego
+//!   only a little faster than the ego goes, so a late ego can cut in neither
+//!   ahead of it nor, until it has passed, behind it;
+//! - the turn budget is one number; lane traffic brakes at most
+//!   `idm.max_brake` for a car cutting in.
+//!
+//! Why blind play loses, and where it does not yet (see the report on
+//! issue 7): racing meets a committed car alongside (denial); hanging back to
+//! let a committed car pass makes a car making room take its turn and block
+//! the late ego. Still open: an ego that keeps pace and then stops hard close
+//! to the merge point leaves a car making room behind it (it cannot brake as
+//! hard), so the late merge ahead of it often succeeds; and after the car
+//! that took its turn has passed, the follower is not close enough behind it
+//! to stop a merge in between, so outwaiting fits the budget on many seeds.
 //!
 //! Frame: the through lane runs along +x at y = 0; the ramp is parallel at
 //! y = -LANE_OFFSET and tapers into the lane over `road.taper_length_m`
 //! starting at x = 0. The ego's lateral position is derived from its
 //! progress, as a merge assist would steer it.
 
-use super::world::{Contact, History, PlanPoint, ROW_MARGIN_S, World, car_box};
+use super::world::{Contact, EgoApproach, History, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::Action;
 use crate::belief::NoisyReading;
@@ -20,6 +45,21 @@ use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
 use serde::{Deserialize, Serialize};
 
 const LANE_OFFSET: f64 = 3.5;
+/// A car covering an ego that hangs back overlaps its rear by this (m).
+const COVER_OVERLAP_M: f64 = 1.5;
+/// An ego braking harder than this (m/s^2) does not keep pace.
+const PACE_MIN_ACCEL: f64 = -1.0;
+/// A car covering an ego that hangs back brakes up to this (m/s^2).
+const COVER_DECEL: f64 = 4.0;
+/// A car making room drops back at least this much slower than the ego (m/s).
+const DROP_BACK_MPS: f64 = 4.0;
+/// ... and, once behind it, keeps at least this much slower (m/s).
+const HOLD_BACK_MPS: f64 = 0.7;
+/// A car holding the lane eases back to its cruise this gently (m/s^2).
+const EASE_BACK_MPS2: f64 = 1.0;
+/// A car holding the lane closes on level with an ego alongside at this
+/// rate (1/s): it keeps the ego boxed in while the ego drives faster.
+const DENY_LEVEL_GAIN: f64 = 0.5;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -56,17 +96,41 @@ pub struct MergeLane {
     pub cruise_speed_mps: Range,
     /// Lane car's centre relative to the ego's at t = 0 (m): it starts alongside.
     pub alongside_offset_m: Range,
-    /// How much faster than its cruise a committed car drives to deny the
-    /// gap ahead of itself to an ego that speeds up (m/s).
-    pub deny_extra_mps: f64,
-    /// Bumper gap a car making room opens ahead of itself (m).
-    pub open_gap_m: f64,
     /// Follower's centre behind the lane car's centre at t = 0 (m).
     pub follower_gap_m: Range,
+    /// The follower's desired time headway (s) and standstill gap (m): it
+    /// closes up behind a lane car that slows down.
+    pub follower_headway_s: f64,
+    pub follower_min_gap_m: f64,
+    /// How much faster than its cruise a car holding the lane drives to
+    /// keep an ego that is alongside from cutting in ahead of it (m/s).
+    pub deny_extra_mps: f64,
+    /// ... and how hard it accelerates to do so (m/s^2).
+    pub deny_accel_mps2: f64,
+    /// Speed it keeps above an ego alongside (m/s).
+    pub deny_margin_mps: f64,
+    /// Bumper gap a car making room opens ahead of itself (m).
+    pub open_gap_m: f64,
     /// Deceleration with which a car opens a gap for the ego (m/s^2).
     pub open_decel_mps2: f64,
-    /// A yielding lane car that has crawled this long gives up and drives on (s).
-    pub patience_s: f64,
+    /// A car making room keeps it open while the ego keeps pace (drives on
+    /// and is due at the merge point within this of the lane car's own
+    /// arrival at cruise speed) (s).
+    pub pace_tolerance_s: f64,
+    /// Once the ego has hung back this long in a row, a car making room
+    /// gives up and takes its turn (s), drawn per episode.
+    pub patience_s: Range,
+    /// An ego braking harder than this (m/s^2) ...
+    pub late_brake_mps2: f64,
+    /// ... this close to the merge point (m) hangs back at once.
+    pub late_brake_within_m: f64,
+    /// A car taking its turn passes an ego on the ramp this much faster
+    /// than the ego goes (m/s) ...
+    pub pass_margin_mps: f64,
+    /// ... and no slower than this (m/s).
+    pub pass_speed_mps: f64,
+    /// Once past, it pulls back up to its cruise speed this gently (m/s^2).
+    pub resume_accel_mps2: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -81,11 +145,13 @@ pub struct MergeTier2 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MergeTier3 {
-    /// A bluffing car opens the gap only down to this fraction of its cruise speed.
+    /// Both dispositions open the gap like a car making room, down to this
+    /// fraction of the cruise speed; only a car making room slows further.
     pub floor_fraction: f64,
-    /// ... holds that speed this long, then drives on if the ego has not committed (s).
+    /// A bluffer holds the floor this long, then takes its turn (s).
     pub hold_s: f64,
-    /// The ego commits when it proceeds while due at the merge point within this (s).
+    /// The ego takes the bait when it drives on while due at the merge
+    /// point within this (s): the bluffer closes the gap.
     pub commit_horizon_s: f64,
     /// The bluffer closes the gap this hard (m/s^2).
     pub close_accel_mps2: f64,
@@ -98,13 +164,24 @@ impl MergeParams {
         c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.0, self.episode.speed_limit_mps)?;
         c.within("ego.goal_past_ramp_end_m", self.ego.goal_past_ramp_end_m, 0.0, 200.0)?;
         c.within("road.taper_length_m", self.road.taper_length_m, 5.0, 100.0)?;
-        c.range_within("lane.cruise_speed_mps", self.lane.cruise_speed_mps, 1.0, 25.0)?;
-        c.range_within("lane.alongside_offset_m", self.lane.alongside_offset_m, -20.0, 20.0)?;
-        c.range_within("lane.follower_gap_m", self.lane.follower_gap_m, CAR_LENGTH + 1.0, 200.0)?;
-        c.within("lane.open_decel_mps2", self.lane.open_decel_mps2, 0.3, 6.0)?;
-        c.within("lane.deny_extra_mps", self.lane.deny_extra_mps, 0.0, 10.0)?;
-        c.within("lane.open_gap_m", self.lane.open_gap_m, 0.0, 50.0)?;
-        c.within("lane.patience_s", self.lane.patience_s, 0.0, 60.0)?;
+        let lane = &self.lane;
+        c.range_within("lane.cruise_speed_mps", lane.cruise_speed_mps, 1.0, 25.0)?;
+        c.range_within("lane.alongside_offset_m", lane.alongside_offset_m, -20.0, 20.0)?;
+        c.range_within("lane.follower_gap_m", lane.follower_gap_m, CAR_LENGTH + 1.0, 200.0)?;
+        c.within("lane.follower_headway_s", lane.follower_headway_s, 0.1, 5.0)?;
+        c.within("lane.follower_min_gap_m", lane.follower_min_gap_m, 0.0, 20.0)?;
+        c.within("lane.deny_extra_mps", lane.deny_extra_mps, 0.0, 10.0)?;
+        c.within("lane.deny_accel_mps2", lane.deny_accel_mps2, 0.3, 6.0)?;
+        c.within("lane.deny_margin_mps", lane.deny_margin_mps, 0.1, 5.0)?;
+        c.within("lane.open_gap_m", lane.open_gap_m, 0.0, 50.0)?;
+        c.within("lane.open_decel_mps2", lane.open_decel_mps2, 0.3, 6.0)?;
+        c.within("lane.pace_tolerance_s", lane.pace_tolerance_s, 0.0, 10.0)?;
+        c.range_within("lane.patience_s", lane.patience_s, 0.0, 30.0)?;
+        c.within("lane.late_brake_mps2", lane.late_brake_mps2, 0.5, 8.0)?;
+        c.within("lane.late_brake_within_m", lane.late_brake_within_m, 0.0, 100.0)?;
+        c.within("lane.pass_margin_mps", lane.pass_margin_mps, 0.1, 10.0)?;
+        c.within("lane.pass_speed_mps", lane.pass_speed_mps, 0.5, 15.0)?;
+        c.within("lane.resume_accel_mps2", lane.resume_accel_mps2, 0.3, 5.0)?;
         c.within("idm.accel", self.idm.accel, 0.3, 5.0)?;
         c.within("idm.brake", self.idm.brake, 0.5, 8.0)?;
         c.within("idm.headway", self.idm.headway, 0.1, 5.0)?;
@@ -124,19 +201,54 @@ impl MergeParams {
     }
 }
 
+/// Whether the ego drives on as one that means to go first: not braking
+/// harder than a coast, and either speeding up or near `v_max`.
+fn driving_on(approach: &EgoApproach, v_max: f64) -> bool {
+    approach.to_conflict > 0.0 && approach.a > -0.6 && (approach.a >= 0.5 || approach.v >= 0.85 * v_max)
+}
+
+/// A car waiting for the ego to go first loses patience once the ego has
+/// hung back (not kept pace) for `patience_s` in a row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Patience {
+    patience_s: f64,
+    hanging_since: Option<f64>,
+}
+
+impl Patience {
+    fn new(patience_s: f64) -> Self {
+        Patience { patience_s, hanging_since: None }
+    }
+
+    /// Record what the ego does at time `t`; true once patience ran out.
+    fn run_out(&mut self, t: f64, ego_going: bool) -> bool {
+        if ego_going {
+            self.hanging_since = None;
+            return false;
+        }
+        let since = *self.hanging_since.get_or_insert(t);
+        t - since + 1e-9 >= self.patience_s
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
-    /// Holding the lane at cruise speed (committed, tiers 1-2).
+    /// Holding the lane at cruise speed, keeping an ego alongside out
+    /// (committed, tiers 1-2; a tier-3 bluffer once it closed the gap).
     Hold,
-    /// Dropping back behind the ego.
-    Open { crawling_since: Option<f64>, floor_since: Option<f64> },
+    /// Making room: dropping back behind an ego that keeps pace, covering
+    /// one that hangs back (a car making room; a tier-3 bluffer until the
+    /// ego takes the bait).
+    Open { floor_since: Option<f64> },
     /// Closing the gap after a bluff.
     Close,
-    /// Driving on, reacting only to a car physically ahead in the lane.
-    Drive,
+    /// Taking its turn: drawing level with the ego and passing it slowly,
+    /// then back to cruise.
+    TakeTurn,
 }
 
 pub struct MergeWorld {
+    tier: Tier,
     disposition: Disposition,
     params: MergeParams,
     merge_point: f64,
@@ -145,6 +257,10 @@ pub struct MergeWorld {
     follower: Body,
     cruise: f64,
     phase: Phase,
+    /// Where a committed car (one holding the lane) would be, given the
+    /// same ego: a car making room measures the ego's pace against it.
+    shadow: Body,
+    patience: Patience,
     revealed: bool,
     noise: Option<EpisodeRng>,
     /// The noisy readings of the last observation (tier 2 only).
@@ -167,11 +283,12 @@ impl MergeWorld {
         let cruise = params.lane.cruise_speed_mps.sample(geometry);
         let offset = params.lane.alongside_offset_m.sample(geometry);
         let follower_gap = params.lane.follower_gap_m.sample(geometry);
+        let patience = params.lane.patience_s.sample(geometry);
         let ego_start = Body::new(merge_point - d_ego, v_ego);
         let x_lane = ego_start.s + offset;
         let phase = match (tier, disposition) {
             (Tier::T1 | Tier::T2, Disposition::Committed) => Phase::Hold,
-            _ => Phase::Open { crawling_since: None, floor_since: None },
+            _ => Phase::Open { floor_since: None },
         };
         // The steady history before t = 0 is observed through the same noise
         // as every later turn (tier 2 only).
@@ -182,6 +299,7 @@ impl MergeWorld {
         let lane_history = History::steady(observe_noisy(&mut noise, &params.tier2, lane_now), rel_rate);
         let follower_history = History::steady(observe_noisy(&mut noise, &params.tier2, follower_now), rel_rate);
         MergeWorld {
+            tier,
             disposition,
             params: params.clone(),
             merge_point,
@@ -190,6 +308,8 @@ impl MergeWorld {
             follower: Body::new(x_lane - follower_gap, cruise),
             cruise,
             phase,
+            shadow: Body::new(x_lane, cruise),
+            patience: Patience::new(patience),
             revealed: tier != Tier::T3,
             noise,
             readings: Vec::new(),
@@ -228,74 +348,160 @@ impl MergeWorld {
         best
     }
 
+    /// Whether the ego keeps the pace of one that takes the gap: not
+    /// braking, and due at the merge point before a committed car (the
+    /// shadow) would have cleared it, plus the tolerance. An ego due later
+    /// than that is hanging back, however fast it goes: it could merge
+    /// behind a committed car.
+    fn ego_keeps_pace(&self, ego: &Body, t: f64) -> bool {
+        if self.ego_in_lane(ego) {
+            return true;
+        }
+        let approach = EgoApproach::new(self.merge_point - ego.s, ego);
+        let v_max = self.params.episode.speed_limit_mps;
+        let clear_at = self.merge_point + CAR_LENGTH;
+        let shadow_clear = t + (clear_at - self.shadow.s).max(0.0) / self.shadow.v.max(0.1);
+        ego.a > PACE_MIN_ACCEL && t + approach.eta(v_max) <= shadow_clear + self.params.lane.pace_tolerance_s
+    }
+
+    /// Whether the ego brakes hard close to the merge point: to a car that
+    /// was making room, hanging back at once.
+    fn ego_brakes_late(&self, ego: &Body) -> bool {
+        let lane = &self.params.lane;
+        let d = self.merge_point - ego.s;
+        d > 0.0 && d < lane.late_brake_within_m && ego.a < -lane.late_brake_mps2
+    }
+
+    /// A car holding the lane: cruise, but keep ahead of an ego that is
+    /// alongside on the ramp (match it plus a margin) so that it cannot cut
+    /// in ahead.
+    fn hold_accel(&self, lane: Body, ego: &Body, dt: f64) -> f64 {
+        let p = &self.params.lane;
+        let rel = lane.s - ego.s;
+        let alongside = !self.ego_in_lane(ego) && rel < CAR_LENGTH && rel > -(CAR_LENGTH + 2.0);
+        let target = if alongside {
+            (ego.v - DENY_LEVEL_GAIN * rel).clamp(self.cruise, self.cruise + p.deny_extra_mps)
+        } else {
+            self.cruise
+        };
+        track_speed(lane.v, target, p.deny_accel_mps2, EASE_BACK_MPS2, dt)
+    }
+
+    /// A car taking its turn: draw level with an ego on the ramp and pass
+    /// it only a little faster than it goes (so the ego can cut in neither
+    /// ahead of it nor, until it and its follower have passed, behind it);
+    /// once past, pull back up to cruise gently.
+    fn take_turn_accel(&self, ego: &Body, dt: f64) -> f64 {
+        let lane = self.lane_car;
+        let p = &self.params.lane;
+        let rel = lane.s - ego.s;
+        if !self.ego_in_lane(ego) && rel < 2.0 * CAR_LENGTH {
+            // Near the ego on the ramp: keep just ahead of it (catching up
+            // if behind), however it moves, so that it cannot cut in ahead.
+            let behind = (-rel).max(0.0);
+            let target = (ego.v + p.pass_margin_mps + 0.5 * behind)
+                .max(p.pass_speed_mps)
+                .min(self.cruise + p.deny_extra_mps);
+            let up = if behind > 0.0 || ego.v + p.pass_margin_mps > lane.v { p.deny_accel_mps2 } else { p.resume_accel_mps2 };
+            track_speed(lane.v, target, up, COVER_DECEL, dt)
+        } else {
+            track_speed(lane.v, self.cruise, p.resume_accel_mps2, 3.0, dt)
+        }
+    }
+
+    /// A car making room. For an ego that keeps pace: drop back until
+    /// `open_gap_m` behind it, then follow it as if it were already the
+    /// leader. For an ego that hangs back: cover it (front overlapping the
+    /// ego's rear by `COVER_OVERLAP_M`), so that it cannot cut in ahead
+    /// unless it goes in time. Never slower than `floor`.
+    fn open_accel(&self, ego: &Body, pace: bool, floor: f64, dt: f64) -> f64 {
+            let p = &self.params.lane;
+        let lane = self.lane_car;
+        let decel = p.open_decel_mps2;
+        let gap = ego.s - lane.s - CAR_LENGTH;
+        if !pace {
+            let rel_target = -(CAR_LENGTH - COVER_OVERLAP_M);
+            let off = rel_target - (lane.s - ego.s);
+            let target = (ego.v + 1.0 * off).max(floor).max(0.0);
+            return track_speed(lane.v, target, p.deny_accel_mps2, COVER_DECEL, dt);
+        }
+        // Drop back to `open_gap_m` behind the ego's rear, then keep that
+        // gap (no farther back: the ego is to slip in just ahead).
+        // Visibly holding back: never as fast as the ego until it is in.
+        let follow = (ego.v + 0.8 * (gap - p.open_gap_m)).min(ego.v - HOLD_BACK_MPS);
+        let target = if gap < 0.0 { follow.min(ego.v - DROP_BACK_MPS).min(lane.v) } else { follow };
+        let target = target.clamp(floor, self.cruise + p.deny_extra_mps);
+        track_speed(lane.v, target, p.deny_accel_mps2, decel, dt)
+    }
+
     fn lane_car_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
         let idm = self.params.idm;
         let lane = self.lane_car;
-        let rel = lane.s - ego.s;
         let in_lane_leader = self.leader(&lane, None, ego);
         // A car physically in the lane ahead is always respected.
-        let respect = |a: f64| a.min(idm.accel(lane.v, f64::INFINITY, in_lane_leader));
+        let cap = idm.accel(lane.v, f64::INFINITY, in_lane_leader);
+        let respect = |a: f64| if cap < 0.5 * idm.accel { a.min(cap) } else { a };
+        let makes_room = self.disposition == Disposition::MakesRoom;
+        let floor = self.params.tier3.floor_fraction * self.cruise;
+        let pace = self.ego_keeps_pace(ego, t);
+        if makes_room && matches!(self.phase, Phase::Open { .. }) {
+            // Tier 3: the car making room shows itself by slowing below the
+            // bluffer's floor; until then it does not give up either.
+            let shown = self.tier != Tier::T3 || lane.v < floor - 0.5;
+            if shown {
+                self.revealed = true;
+            }
+            // Patience runs while the car covers an ego that hangs back
+            // (level with it at its speed): a car that could not stop as
+            // hard as the ego waits first, then pulls away from there.
+            let covering = lane.v <= ego.v + 1.5;
+            let out = self.patience.run_out(t, pace) || self.ego_brakes_late(ego);
+            if shown && out && covering {
+                self.phase = Phase::TakeTurn;
+            }
+        }
         match self.phase {
-            Phase::Drive => idm.accel(lane.v, self.cruise, in_lane_leader),
-            Phase::Hold => {
-                // Committed: deny the gap ahead by matching a faster ego while
-                // alongside; otherwise keep cruising.
-                let alongside = rel < CAR_LENGTH && rel > -2.0 * CAR_LENGTH;
-                let target = if alongside {
-                    (ego.v + 0.5).clamp(self.cruise, self.cruise + self.params.lane.deny_extra_mps)
-                } else {
-                    self.cruise
-                };
-                respect(track_speed(lane.v, target, 2.5, 3.0, dt))
-            }
+            Phase::Hold => respect(self.hold_accel(self.lane_car, ego, dt)),
+            Phase::TakeTurn => respect(self.take_turn_accel(ego, dt)),
             Phase::Close => {
-                track_speed(lane.v, (ego.v + 2.0).max(self.cruise), self.params.tier3.close_accel_mps2, 3.0, dt)
+                if lane.s - ego.s > CAR_LENGTH + 1.0 || self.ego_in_lane(ego) {
+                    self.phase = Phase::Hold;
+                }
+                respect(track_speed(
+                    lane.v,
+                    (ego.v + 2.0).max(self.cruise),
+                    self.params.tier3.close_accel_mps2,
+                    3.0,
+                    dt,
+                ))
             }
-            Phase::Open { crawling_since, floor_since } => {
-                let bluffing = self.disposition == Disposition::Committed;
-                let floor = self.params.tier3.floor_fraction * self.cruise;
-                let ego_to_merge = self.merge_point - ego.s;
-                let ego_commits = ego.a > -0.5
-                    && ego.v > 1.0
-                    && ego_to_merge > 0.0
-                    && ego_to_merge < self.params.tier3.commit_horizon_s * ego.v.max(0.1);
-                if !self.revealed && (ego_commits || lane.v <= floor) {
+            Phase::Open { floor_since } => {
+                if makes_room {
+                    let floor = if self.tier == Tier::T3 && !self.revealed { floor } else { 0.0 };
+                    return respect(self.open_accel(ego, pace, floor, dt));
+                }
+                // Tier-3 bluff: open like a car making room, down to the
+                // floor; close the gap once the ego's motion shows it takes
+                // the bait, or take the turn after holding the floor.
+                let approach = EgoApproach::new(self.merge_point - ego.s, ego);
+                let v_max = self.params.episode.speed_limit_mps;
+                let ego_commits = approach.to_conflict > 0.0
+                    && driving_on(&approach, v_max)
+                    && approach.eta(v_max) < self.params.tier3.commit_horizon_s;
+                if ego_commits {
                     self.revealed = true;
+                    self.phase = Phase::Close;
+                    return respect(self.params.tier3.close_accel_mps2);
                 }
-                if bluffing {
-                    if ego_commits {
-                        self.phase = Phase::Close;
-                        return self.params.tier3.close_accel_mps2;
-                    }
-                    if lane.v <= floor {
-                        let since = floor_since.unwrap_or(t);
-                        self.phase = Phase::Open { crawling_since, floor_since: Some(since) };
-                        if t - since >= self.params.tier3.hold_s {
-                            self.phase = Phase::Drive;
-                        }
-                        return 0.0;
+                if lane.v <= floor + 1e-9 {
+                    let since = floor_since.unwrap_or(t);
+                    self.phase = Phase::Open { floor_since: Some(since) };
+                    if t - since >= self.params.tier3.hold_s {
+                        self.revealed = true;
+                        self.phase = Phase::TakeTurn;
                     }
                 }
-                // Drop back until `open_gap_m` behind the ego, then follow it
-                // as if it were already the leader.
-                let gap = ego.s - lane.s - CAR_LENGTH;
-                let a = if gap < self.params.lane.open_gap_m {
-                    // Fall back relative to the ego, however slowly it goes.
-                    track_speed(lane.v, (ego.v - 2.0).max(0.0), idm.accel, self.params.lane.open_decel_mps2, dt)
-                } else {
-                    idm.accel(
-                        lane.v,
-                        self.cruise,
-                        Some((gap - self.params.lane.open_gap_m + idm.min_gap, lane.v - ego.v)),
-                    )
-                };
-                let crawling = lane.v < 1.0;
-                let since = if crawling { Some(crawling_since.unwrap_or(t)) } else { None };
-                self.phase = Phase::Open { crawling_since: since, floor_since };
-                if since.is_some_and(|s| t - s >= self.params.lane.patience_s) {
-                    self.phase = Phase::Drive;
-                }
-                a
+                respect(self.open_accel(ego, pace, floor, dt))
             }
         }
     }
@@ -324,8 +530,16 @@ impl World for MergeWorld {
 
     fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
         let a_lane = self.lane_car_accel(ego, t, dt);
+        let a_shadow = self.hold_accel(self.shadow, ego, dt);
+        self.shadow.advance(a_shadow, dt);
         let leader = self.leader(&self.follower, Some(&self.lane_car), ego);
-        let a_follow = self.params.idm.accel(self.follower.v, self.cruise, leader);
+        let follower_idm = Idm {
+            accel: self.params.lane.deny_accel_mps2,
+            headway: self.params.lane.follower_headway_s,
+            min_gap: self.params.lane.follower_min_gap_m,
+            ..self.params.idm
+        };
+        let a_follow = follower_idm.accel(self.follower.v, self.cruise, leader);
         self.lane_car.advance(a_lane, dt);
         self.follower.advance(a_follow, dt);
     }
@@ -423,42 +637,110 @@ impl World for MergeWorld {
 
 // --- Baseline rules for this scenario (read only the public observation) ---
 
-/// Where the expert waits: this far before the merge point.
-const WAIT_GAP_M: f64 = 3.0;
+/// Where the expert stops at the latest: this far before the merge point.
+const WAIT_GAP_M: f64 = 2.0;
+/// Until this close to the merge point (m), a lane car that has shown
+/// nothing yet is given the chance to make room.
+const UNDECIDED_UNTIL_M: f64 = 26.0;
 
 /// Whether the lane has room for the ego now. Cars are placed by their
 /// centre relative to the ego (positive ahead). The car ahead needs a
-/// headway that grows with the closing speed; a car behind must either be
-/// far back or have actually slowed to a crawl (`crawl_ok`), since a car that
-/// only eases off may close the gap again.
-fn lane_has_room(cars: [&Track; 2], ego_speed: f64, crawl_ok: bool) -> bool {
+/// bumper gap that covers a short headway and the closing speed; a car
+/// behind needs one in which it can brake comfortably to the ego's speed,
+/// and must not be gaining speed (a car that re-accelerates may be closing
+/// the gap on purpose).
+fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
     cars.iter().all(|t| {
         let (rel, v) = (t.now.position_m, t.now.velocity_mps);
         if rel >= 0.0 {
             let gap = rel - CAR_LENGTH;
-            gap >= 2.0 + 0.8 * ego_speed + 1.5 * (ego_speed - v).max(0.0)
+            let closing = (ego_speed - v).max(0.0);
+            gap >= 1.0 + 0.3 * ego_speed + closing * closing / 6.0
         } else {
             let gap = -rel - CAR_LENGTH;
-            let far = gap >= 4.0 + 0.6 * v + 2.0 * (v - ego_speed).max(0.0);
-            far || (crawl_ok && gap >= 1.0 && v < 4.0)
+            let closing = (v - ego_speed).max(0.0);
+            gap >= 0.5 + closing * closing / 6.0 && (t.recent_accel() < 0.5 || v < ego_speed - 0.5)
         }
     })
 }
 
-/// The expert: merge once the lane has room; until then keep a stop before
-/// the merge point possible.
-pub(crate) fn expert(v: f64, _v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
-    if lane_has_room([lane_car, follower], v, true) {
-        go()
-    } else if d < 0.0 {
-        Action::new(crate::action::Maneuver::Yield, 0.5)
+/// Whether the lane car is making room: clearly slowing, or holding back
+/// behind the ego's rear no faster than the ego.
+fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
+    let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
+    let slowest_before = lane_car.past.iter().map(|p| p.velocity_mps).fold(f64::INFINITY, f64::min);
+    let slowing = rel < CAR_LENGTH
+        && ((lane_car.recent_accel() < -1.0 && v < slowest_before - 0.3)
+            || (v < ego_speed - 2.0 && lane_car.recent_accel() < 2.0));
+    let holding_back = rel < -CAR_LENGTH && v <= ego_speed + 0.3 && lane_car.recent_accel() < 0.5;
+    slowing || holding_back
+}
+
+/// Speed-tracking action toward `target`, braking at most as needed.
+fn toward(v: f64, target: f64) -> Action {
+    use crate::action::Maneuver;
+    if v < target - 0.2 {
+        Action::new(Maneuver::Proceed, ((target - v) / 1.5 - 0.5).clamp(0.0, 1.0))
+    } else if v > target + 0.2 {
+        Action::new(Maneuver::Yield, ((v - target) / 2.0 - 0.1).clamp(0.0, 1.0))
     } else {
-        hedge(v, d - WAIT_GAP_M)
+        Action::new(Maneuver::Proceed, 0.0)
     }
 }
 
-/// The cue follower: merge as soon as the lane car eases off.
-pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
-    let giving_way = lane_car.recent_accel() < -0.3;
-    if d < 0.0 || lane_has_room([lane_car, follower], v, true) || giving_way { go() } else { hedge(v, d - 1.0) }
+/// The gentler (more braking) of two actions, by the acceleration each
+/// commands at speed `v`.
+fn gentler(v: f64, v_max: f64, a: Action, b: Action) -> Action {
+    let acc = |x: &Action| x.control().acceleration(v, v_max, crate::sim::DT);
+    if acc(&a) <= acc(&b) { a } else { b }
+}
+
+/// In the lane: full speed, but keep a safe gap to a lane car ahead.
+fn follow_in_lane(v: f64, v_max: f64, cars: [&Track; 2]) -> Action {
+    let ahead = cars.iter().filter(|t| t.now.position_m > 0.0).min_by(|a, b| a.now.position_m.total_cmp(&b.now.position_m));
+    match ahead {
+        Some(t) => {
+            let gap = t.now.position_m - CAR_LENGTH;
+            let target = (t.now.velocity_mps + 0.8 * (gap - 2.0 - 0.6 * v)).clamp(0.0, v_max);
+            toward(v, target)
+        }
+        None => go(),
+    }
+}
+
+/// The expert: keep pace at first (a car making room only opens a gap for
+/// an ego that keeps pace); merge ahead once the lane car shows it makes
+/// room; otherwise let the lane car and its follower pass, keeping a stop
+/// before the merge point possible, and merge behind them.
+pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
+    if d < 0.0 {
+        return follow_in_lane(v, v_max, [lane_car, follower]);
+    }
+    if lane_has_room([lane_car, follower], v) {
+        return gentler(v, v_max, go(), follow_in_lane(v, v_max, [lane_car, follower]));
+    }
+    let undecided = lane_car.past.iter().all(|p| (p.velocity_mps - lane_car.now.velocity_mps).abs() < 0.3)
+        && lane_car.now.position_m.abs() < CAR_LENGTH;
+    if making_room(lane_car, v) || (undecided && d > UNDECIDED_UNTIL_M) {
+        return go();
+    }
+    // Let both lane cars go first: arrive at the merge point once the last
+    // of them has cleared it, never closer than a comfortable stop.
+    let last = if follower.now.position_m > lane_car.now.position_m { lane_car } else { follower };
+    let (rel, v_last) = (last.now.position_m, last.now.velocity_mps.max(1.0));
+    let clear_in = (d - rel + CAR_LENGTH + 3.0) / v_last;
+    let target = (d / clear_in).min(v_last - 1.0).max(0.0);
+    gentler(v, v_max, toward(v, target), hedge(v, d - WAIT_GAP_M))
+}
+
+/// The cue follower: merge as soon as the lane car has eased off anywhere
+/// in the observed history, without checking that it keeps making room.
+pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
+    let top = lane_car.past.iter().map(|p| p.velocity_mps).fold(lane_car.now.velocity_mps, f64::max);
+    let eased = lane_car.now.velocity_mps < top - 1.0 || lane_car.past.iter().any(|p| p.velocity_mps < top - 1.0);
+    if eased || d < 0.0 || lane_has_room([lane_car, follower], v) {
+        go()
+    } else {
+        expert(v, v_max, d, lane_car, follower)
+    }
 }
