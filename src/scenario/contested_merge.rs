@@ -431,7 +431,7 @@ impl MergeWorld {
         let follow = (ego.v + 0.8 * (gap - p.open_gap_m)).min(ego.v - HOLD_BACK_MPS);
         let target = if gap < 0.0 { follow.min(ego.v - DROP_BACK_MPS).min(lane.v) } else { follow };
         let target = target.clamp(floor, self.cruise + p.deny_extra_mps);
-        track_speed(lane.v, target, p.deny_accel_mps2, decel, dt)
+        track_speed(lane.v, target, self.params.idm.accel, decel, dt)
     }
 
     fn lane_car_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
@@ -464,16 +464,13 @@ impl MergeWorld {
             Phase::Hold => respect(self.hold_accel(self.lane_car, ego, dt)),
             Phase::TakeTurn => respect(self.take_turn_accel(ego, dt)),
             Phase::Close => {
-                if lane.s - ego.s > CAR_LENGTH + 1.0 || self.ego_in_lane(ego) {
+                // Back to level with the ego, hard; then hold the lane.
+                let rel = lane.s - ego.s;
+                if rel > -1.0 || self.ego_in_lane(ego) {
                     self.phase = Phase::Hold;
                 }
-                respect(track_speed(
-                    lane.v,
-                    (ego.v + 2.0).max(self.cruise),
-                    self.params.tier3.close_accel_mps2,
-                    3.0,
-                    dt,
-                ))
+                let target = (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.cruise + self.params.lane.deny_extra_mps);
+                respect(track_speed(lane.v, target, self.params.tier3.close_accel_mps2, 3.0, dt))
             }
             Phase::Open { floor_since } => {
                 if makes_room {
@@ -491,7 +488,6 @@ impl MergeWorld {
                 if ego_commits {
                     self.revealed = true;
                     self.phase = Phase::Close;
-                    return respect(self.params.tier3.close_accel_mps2);
                 }
                 if lane.v <= floor + 1e-9 {
                     let since = floor_since.unwrap_or(t);
@@ -672,7 +668,9 @@ fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
     let slowing = rel < CAR_LENGTH
         && ((lane_car.recent_accel() < -1.0 && v < slowest_before - 0.3)
             || (v < ego_speed - 2.0 && lane_car.recent_accel() < 2.0));
-    let holding_back = rel < -CAR_LENGTH && v <= ego_speed + 0.3 && lane_car.recent_accel() < 0.5;
+    let holding_back = rel < -CAR_LENGTH
+        && v <= ego_speed + 0.3
+        && (lane_car.recent_accel() < 0.5 || (v < ego_speed - 1.0 && lane_car.recent_accel() < 2.0));
     slowing || holding_back
 }
 
