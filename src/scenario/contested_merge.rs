@@ -395,7 +395,7 @@ impl MergeWorld {
         let lane = self.lane_car;
         let p = &self.params.lane;
         let rel = lane.s - ego.s;
-        if !self.ego_in_lane(ego) && rel < 2.0 * CAR_LENGTH {
+        if !self.ego_in_lane(ego) && rel < CAR_LENGTH + 1.0 {
             // Near the ego on the ramp: keep just ahead of it (catching up
             // if behind), however it moves, so that it cannot cut in ahead.
             let behind = (-rel).max(0.0);
