@@ -664,14 +664,20 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
 /// behind the ego's rear no faster than the ego.
 fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
     let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
-    let slowest_before = lane_car.past.iter().map(|p| p.velocity_mps).fold(f64::INFINITY, f64::min);
-    let slowing = rel < CAR_LENGTH
-        && ((lane_car.recent_accel() < -1.0 && v < slowest_before - 0.3)
-            || (v < ego_speed - 2.0 && lane_car.recent_accel() < 2.0));
+    let slowing = rel < CAR_LENGTH && (speed_trend(lane_car) < -2.2 || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
+    // Behind the ego's centre and no faster: it is letting the ego go.
+    let fallen_back = rel < -1.5 && v < ego_speed - 0.5;
     let holding_back = rel < -CAR_LENGTH
         && v <= ego_speed + 0.3
         && (lane_car.recent_accel() < 0.5 || (v < ego_speed - 1.0 && lane_car.recent_accel() < 2.0));
-    slowing || holding_back
+    slowing || holding_back || fallen_back
+}
+
+/// The lane car's speed now against its mean over the observed history
+/// (m/s): robust to observation noise, negative for a car easing off.
+fn speed_trend(t: &Track) -> f64 {
+    let mean = t.past.iter().map(|p| p.velocity_mps).sum::<f64>() / t.past.len() as f64;
+    t.now.velocity_mps - mean
 }
 
 /// Speed-tracking action toward `target`, braking at most as needed.
@@ -717,8 +723,8 @@ pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Tr
     if lane_has_room([lane_car, follower], v) {
         return gentler(v, v_max, go(), follow_in_lane(v, v_max, [lane_car, follower]));
     }
-    let undecided = lane_car.past.iter().all(|p| (p.velocity_mps - lane_car.now.velocity_mps).abs() < 0.3)
-        && lane_car.now.position_m.abs() < CAR_LENGTH;
+    // No sign yet of a car holding the lane (speeding up to keep the ego out).
+    let undecided = speed_trend(lane_car) < 1.0 && lane_car.now.position_m.abs() < CAR_LENGTH + 1.0;
     if making_room(lane_car, v) || (undecided && d > UNDECIDED_UNTIL_M) {
         return go();
     }
