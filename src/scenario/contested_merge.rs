@@ -42,7 +42,13 @@
 //!   (tier 3 bluffer closes late enough that a slow approach wins 0.67); an
 //!   early stop far before the merge point, then a full-throttle go, passes
 //!   a car making room that stopped next to it, which scores decision
-//!   correctness 0.73 without succeeding.
+//!   correctness 0.73 without succeeding;
+//! - the cue follower (merges whenever the lane car has eased off and is
+//!   behind the ego) is no longer fooled by a committed car easing back
+//!   after boxing the ego in, but neither by the tier-3 bluffer: against an
+//!   ego that drives on from the start, the bluffer closes before it has
+//!   dropped back, and one that dropped back closes too late to catch an
+//!   ego merging ahead of it.
 //!
 //! Frame: the through lane runs along +x at y = 0; the ramp is parallel at
 //! y = -LANE_OFFSET and tapers into the lane over `road.taper_length_m`
@@ -755,12 +761,15 @@ pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Tr
     gentler(v, v_max, toward(v, target), hedge(v, d - WAIT_GAP_M))
 }
 
-/// The cue follower: merge as soon as the lane car has eased off anywhere
-/// in the observed history, without checking that it keeps making room.
+/// The cue follower: merge whenever the lane car has dropped back (behind
+/// the ego and slower than it), without checking that it keeps making room
+/// (a car closing a gap from behind is still behind and slower for a while).
 pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
-    let top = lane_car.past.iter().map(|p| p.velocity_mps).fold(lane_car.now.velocity_mps, f64::max);
-    let eased = lane_car.now.velocity_mps < top - 1.0 || lane_car.past.iter().any(|p| p.velocity_mps < top - 1.0);
-    if eased || d < 0.0 || lane_has_room([lane_car, follower], v) {
+    let (rel, v_lane) = (lane_car.now.position_m, lane_car.now.velocity_mps);
+    let top = lane_car.past.iter().map(|p| p.velocity_mps).fold(v_lane, f64::max);
+    let eased = v_lane < top - 1.0 || lane_car.past.iter().any(|p| p.velocity_mps < top - 1.0);
+    let dropping_back = eased && rel < -1.0;
+    if dropping_back || d < 0.0 || lane_has_room([lane_car, follower], v) {
         go()
     } else {
         expert(v, v_max, d, lane_car, follower)
