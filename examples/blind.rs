@@ -9,7 +9,10 @@ use negotiator::scenario::{ScenarioKind, ScenarioSet, Tier};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let set = ScenarioSet::default();
+    let set = match std::env::var("SCENARIO_OVERRIDE") {
+        Ok(p) => ScenarioSet::with_overrides(&[p.into()]).unwrap(),
+        Err(_) => ScenarioSet::default(),
+    };
     let scenarios: Vec<ScenarioKind> = match args.first().map(String::as_str) {
         Some("all") | None => ScenarioKind::ALL.to_vec(),
         Some(s) => vec![s.parse().unwrap()],
@@ -66,5 +69,5 @@ fn main() {
 }
 
 fn short(s: &str) -> String {
-    if s.len() > 200 { format!("{}...", &s[..200]) } else { s.to_string() }
+    if s.len() > 200 && std::env::var("FULL").is_err() { format!("{}...", &s[..200]) } else { s.to_string() }
 }

@@ -18,7 +18,10 @@ fn main() {
     });
     let policy: PolicyKind = if schedule.is_some() { PolicyKind::Expert } else { a[3].parse().unwrap() };
     let seed: u64 = a[4].parse().unwrap();
-    let set = ScenarioSet::default();
+    let set = match std::env::var("SCENARIO_OVERRIDE") {
+        Ok(p) => ScenarioSet::with_overrides(&[p.into()]).unwrap(),
+        Err(_) => ScenarioSet::default(),
+    };
     let mut ep = match a.get(5) {
         Some(d) => {
             Episode::with_disposition(set.get(kind), tier, seed, serde_json::from_str(&format!("\"{d}\"")).unwrap())

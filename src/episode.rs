@@ -165,6 +165,9 @@ pub struct Episode {
     /// weighs every reading against it).
     twin: Option<Box<dyn World + Send>>,
     timing: EvidenceTiming,
+    /// The turn the ego passed its point of no return, where that alone
+    /// does not settle the order (see [`World::order_settles_choice`]).
+    no_return_turn: Option<u32>,
     /// The ideal observer: the log-likelihood ratio of the true disposition
     /// against the other from the noisy readings so far, and whether the
     /// other disposition has been ruled out.
@@ -229,6 +232,7 @@ impl Episode {
             world,
             twin: Some(twin),
             timing: EvidenceTiming::default(),
+            no_return_turn: None,
             llr: 0.0,
             certain: false,
             noisy,
@@ -454,6 +458,23 @@ impl Episode {
         let turn = self.turn + 1;
         let approach = EgoApproach::new(self.world.ego_to_conflict(&self.ego), &self.ego);
         let (to_conflict, beyond_stopping) = (approach.to_conflict, approach.beyond_stopping());
+        if self.world.order_settles_choice() {
+            // Side by side: an ego past its point of no return can still
+            // fall in behind, so the order of entry is the choice.
+            if beyond_stopping && self.no_return_turn.is_none() {
+                self.no_return_turn = Some(turn);
+            }
+            if self.world.other_entered() {
+                self.timing.first_in = Some(Party::Other);
+                self.timing.choice = Some(Choice::GiveWay);
+                self.timing.commitment_turn = Some(turn);
+            } else if to_conflict <= 0.0 {
+                self.timing.first_in = Some(Party::Ego);
+                self.timing.choice = Some(Choice::Go);
+                self.timing.commitment_turn = Some(self.no_return_turn.unwrap_or(turn));
+            }
+            return;
+        }
         if beyond_stopping && self.timing.choice.is_none() {
             self.timing.choice = Some(Choice::Go);
             self.timing.commitment_turn = Some(turn);

@@ -46,6 +46,13 @@ pub trait World {
     fn ego_to_conflict(&self, ego: &Body) -> f64;
     /// Privileged: whether the other road user has entered the conflict.
     fn other_entered(&self) -> bool;
+    /// Whether the order of entry, rather than the ego's point of no
+    /// return, settles the go / give-way choice: true where the other
+    /// travels alongside the ego (a merge), so that an ego that can no
+    /// longer stop short of the conflict can still fall in behind it.
+    fn order_settles_choice(&self) -> bool {
+        false
+    }
     /// Privileged: whether the ego is entering the conflict zone while the
     /// other has the way (inside it, or due in less than `ROW_MARGIN_S`).
     fn cuts_off(&self, ego: &Body) -> bool;
