@@ -49,6 +49,7 @@
 //! - surging and lulling (keeping pace in bursts to arrive just behind a
 //!   committed car while holding a car making room): the patience is
 //!   cumulative, so the lulls add up and the car takes its turn.
+//!
 //! The best blind schedules found keep a jittery middle pace and succeed in
 //! about 0.55-0.65 of episodes at the default search budget (0.65-0.70 at
 //! 200,000 episodes); see the README's validate block.

@@ -2,7 +2,7 @@
 
 use negotiator::action::{Action, Maneuver};
 use negotiator::baselines::{GridSpec, run_grid};
-use negotiator::episode::{Episode, EpisodeSpec, Outcome, draw_disposition};
+use negotiator::episode::{Choice, Episode, EpisodeSpec, Outcome, Party, draw_disposition};
 use negotiator::observation::{Observation, render_scene};
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::{ScenarioConfig, ScenarioKind, ScenarioSet, Tier};
@@ -69,8 +69,8 @@ fn golden_vectors_pin_trajectories() {
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 22 t 11.0 ego (0.0000, -18.8029) v 0.0000 other (16.2129, 0.0000) v 4.0000 reward -0.181158 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 2.7515) v 2.5000 reward -0.152324 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (12.5254, 0.0000) v 12.7000 reward -1.000000 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 40 t 20.0 ego (0.4020, -3.4531) v 0.0000 other (102.4303, 0.0000) v 11.7765 reward -0.270144 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (88.9366, 0.0000) v 11.9114 reward -0.279279 dc 0.000");
 }
 
 #[test]
@@ -241,7 +241,7 @@ fn correctness_reads_motion_not_the_label() {
         turn += 1;
     }
     let r = ep.finish();
-    assert_eq!(r.timing.choice, Some(negotiator::episode::Choice::Go));
+    assert_eq!(r.timing.choice, Some(Choice::Go));
     assert_eq!(r.grades.decision_correctness, 0.0, "a go against a committed car is wrong, whatever the label");
     // Stopping at once and staying put lets the committed car through: a give way.
     let mut ep = Episode::new(config, Tier::T1, seed);
@@ -249,8 +249,37 @@ fn correctness_reads_motion_not_the_label() {
         ep.step(Action::new(Maneuver::Stop, 1.0));
     }
     let r = ep.finish();
-    assert_eq!(r.timing.choice, Some(negotiator::episode::Choice::GiveWay));
+    assert_eq!(r.timing.choice, Some(Choice::GiveWay));
     assert_eq!((r.outcome, r.grades.decision_correctness), (Outcome::Timeout, 1.0));
+}
+
+/// In a merge the lane car travels alongside: an ego past its point of no
+/// return can still fall in behind it, so the order of entry is the choice
+/// (a stop, a pause and a full-throttle surge leave many egos committed
+/// to the merge point while the lane car gets there first).
+#[test]
+fn merge_choice_is_the_order_of_entry() {
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::ContestedMerge);
+    let (mut fell_in_behind, mut episodes) = (0, 0);
+    for tier in Tier::ALL {
+        for seed in 0..40 {
+            let mut ep = Episode::new(config, tier, seed);
+            let mut turn = 0;
+            while !ep.is_done() {
+                let a = if turn < 5 { Action::new(Maneuver::Stop, 0.0) } else { Action::new(Maneuver::Proceed, 1.0) };
+                ep.step(a);
+                turn += 1;
+            }
+            let r = ep.finish();
+            let Some(first) = r.timing.first_in else { continue };
+            episodes += 1;
+            let want = if first == Party::Ego { Choice::Go } else { Choice::GiveWay };
+            assert_eq!(r.timing.choice, Some(want), "{tier} seed {seed}: {:?}", r.timing);
+            fell_in_behind += (first == Party::Other) as usize;
+        }
+    }
+    assert!(episodes > 60 && fell_in_behind > 10, "{episodes} episodes, {fell_in_behind} behind the lane car");
 }
 
 /// Other road users react to the ego's motion only: two action sequences

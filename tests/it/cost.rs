@@ -331,9 +331,9 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | pedestrian_feint | 1 | 3 | 13.00 | 18 | 26794 | 86.7% | 329 |
     | pedestrian_feint | 2 | 3 | 15.67 | 18 | 37823 | 88.9% | 400 |
     | pedestrian_feint | 3 | 3 | 13.00 | 18 | 26793 | 86.8% | 329 |
-    | contested_merge | 1 | 3 | 22.33 | 40 | 84858 | 92.0% | 592 |
-    | contested_merge | 2 | 3 | 28.67 | 40 | 132548 | 93.5% | 760 |
-    | contested_merge | 3 | 3 | 27.00 | 40 | 121203 | 93.3% | 714 |
+    | contested_merge | 1 | 3 | 17.67 | 25 | 56278 | 90.3% | 457 |
+    | contested_merge | 2 | 3 | 23.67 | 25 | 92344 | 92.2% | 627 |
+    | contested_merge | 3 | 3 | 15.33 | 25 | 48177 | 90.1% | 396 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");
     let (turns, prompt, completion) = expected_line(&plan);

@@ -91,8 +91,10 @@ fn eval_against_served_expert_scores_like_the_in_process_expert() {
             .count();
         let in_process = wins as f64 / n as f64;
         let served = cell["success"]["estimate"].as_f64().unwrap();
+        // The served expert reads the scene text, rounded to its printed
+        // precision: a knife-edge decision may flip one episode, no more.
         assert!(
-            (served - in_process).abs() <= 0.02 + 1e-9,
+            (served - in_process).abs() <= 1.0 / n as f64 + 1e-9,
             "{kind} tier {tier}: served {served}, in-process {in_process}"
         );
         assert_eq!(cell["parse_error_rate"].as_f64().unwrap(), 0.0);
