@@ -333,7 +333,7 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | pedestrian_feint | 3 | 3 | 13.00 | 18 | 26793 | 86.8% | 329 |
     | contested_merge | 1 | 3 | 17.67 | 25 | 56278 | 90.3% | 457 |
     | contested_merge | 2 | 3 | 23.67 | 25 | 92344 | 92.2% | 627 |
-    | contested_merge | 3 | 3 | 15.33 | 25 | 48177 | 90.1% | 396 |
+    | contested_merge | 3 | 3 | 21.00 | 25 | 76106 | 91.6% | 549 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");
     let (turns, prompt, completion) = expected_line(&plan);
