@@ -678,6 +678,8 @@ impl World for MergeWorld {
 
 // --- Baseline rules for this scenario (read only the public observation) ---
 
+/// A car behind the ego is taken to be this much closer than it reads (m).
+const BEHIND_MARGIN_M: f64 = 1.5;
 /// Where the expert stops at the latest: this far before the merge point.
 const WAIT_GAP_M: f64 = 2.0;
 /// Until this close to the merge point (m), a lane car that has shown
@@ -698,7 +700,10 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
             let closing = (ego_speed - v).max(0.0);
             gap >= 1.0 + 0.3 * ego_speed + closing * closing / 6.0
         } else {
-            let gap = -rel - CAR_LENGTH;
+            // Read pessimistically (a reading may be noisy): as close as
+            // the track allows and as fast as it has lately been.
+            let v = v.max(t.past.iter().map(|p| p.velocity_mps).sum::<f64>() / t.past.len() as f64);
+            let gap = -rel - CAR_LENGTH - BEHIND_MARGIN_M;
             let closing = (v - ego_speed).max(0.0);
             gap >= 0.5 + closing * closing / 6.0 && (t.recent_accel() < 0.5 || v < ego_speed - 0.5)
         }
