@@ -1,5 +1,7 @@
 //! Development aid: the blind-policy search and the expert on chosen cells.
 //! `cargo run --release --example blind -- [scenario] [tier] [budget]`
+//! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file instead of the
+//! built-in one; `FULL=1` prints the plans found in full.
 use negotiator::adversary::{SearchSpec, TRAIN_SEED_BASE, evaluate, search};
 use negotiator::baselines::Cell;
 use negotiator::baselines::run_cell;

@@ -1,3 +1,7 @@
+//! Development aid: one episode, turn by turn.
+//! `cargo run --release --example trace -- <scenario> <tier> <policy|schedule> <seed> [disposition]`,
+//! a schedule written `maneuver:strength:turns,...` (the last entry repeats);
+//! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file.
 use negotiator::episode::*;
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::*;

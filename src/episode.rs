@@ -87,9 +87,11 @@ pub enum Party {
 #[serde(rename_all = "snake_case")]
 pub enum Choice {
     /// The ego passed its point of no return (it could no longer stop short
-    /// of the conflict at full braking) before the other entered it.
+    /// of the conflict at full braking) before the other entered it; where
+    /// the other travels alongside (a merge), the ego entered first.
     Go,
-    /// The other entered the conflict first while the ego could still stop.
+    /// The other entered the conflict first while the ego could still stop
+    /// (alongside: the other entered first).
     GiveWay,
 }
 

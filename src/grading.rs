@@ -70,6 +70,8 @@ pub fn compute_episode_reward(outcome: Outcome, d: &Diagnostics) -> f64 {
 /// point of no return (it could no longer stop short of the conflict at
 /// full braking, 8 m/s^2) before the other road user entered the conflict;
 /// *give way* when the other entered first while the ego could still stop.
+/// In a merge, where the other travels alongside, the order of entry
+/// decides (see [`crate::scenario::world::World::order_settles_choice`]).
 /// Committed cars and crossers require give way; yielders, waiting
 /// pedestrians and cars making room require go. A collision scores 0
 /// whatever was chosen, and so does an episode in which neither happened
