@@ -62,7 +62,7 @@
 //! starting at x = 0. The ego's lateral position is derived from its
 //! progress, as a merge assist would steer it.
 
-use super::world::{Contact, EgoApproach, History, PlanPoint, ROW_MARGIN_S, World, car_box};
+use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::Action;
 use crate::belief::NoisyReading;
@@ -229,33 +229,6 @@ impl MergeParams {
     /// Ego centre x at which its body starts to overlap the lane.
     pub fn merge_point(&self) -> f64 {
         self.road.taper_length_m * (1.0 - CAR_WIDTH / LANE_OFFSET)
-    }
-}
-
-/// A car waiting for the ego to go first loses patience once the ego has
-/// hung back (not kept pace) for `patience_s` in all: keeping pace again
-/// in between does not reset it, so no rhythm of surges and lulls outlasts
-/// it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Patience {
-    patience_s: f64,
-    hung_back_s: f64,
-    last_t: Option<f64>,
-}
-
-impl Patience {
-    fn new(patience_s: f64) -> Self {
-        Patience { patience_s, hung_back_s: 0.0, last_t: None }
-    }
-
-    /// Record what the ego does at time `t`; true once patience ran out.
-    fn run_out(&mut self, t: f64, ego_going: bool) -> bool {
-        let dt = self.last_t.map_or(0.0, |last| t - last);
-        self.last_t = Some(t);
-        if !ego_going {
-            self.hung_back_s += dt;
-        }
-        self.hung_back_s + 1e-9 >= self.patience_s
     }
 }
 
@@ -488,7 +461,11 @@ impl MergeWorld {
             // (level with it at its speed): a car that could not stop as
             // hard as the ego waits first, then pulls away from there.
             let covering = lane.v <= ego.v + 1.5;
-            let out = self.patience.run_out(t, pace) || self.ego_brakes_late(ego);
+            // At t = 0 the ego's state is where it started, not a choice.
+            if !pace && t > 0.0 {
+                self.patience.hang_back(dt);
+            }
+            let out = self.patience.run_out() || self.ego_brakes_late(ego);
             if shown && out && covering {
                 self.phase = Phase::TakeTurn;
             }

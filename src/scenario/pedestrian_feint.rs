@@ -49,7 +49,7 @@
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
 //! lateral from the near kerb: `lat = y + 1.75`.
 
-use super::world::{Contact, EgoApproach, History, PlanPoint, World, car_box, crossing_ttc};
+use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::{Action, Maneuver};
 use crate::observation::{Sample, Scene, Track};
@@ -214,9 +214,8 @@ pub struct PedestrianWorld {
     /// the feinter starts watching at `decide_at` (s).
     decide_at: f64,
     step_speed: f64,
-    patience: f64,
-    /// Hang-back accumulated while the feinter waits (s).
-    waited: f64,
+    /// The feinter's patience with a car that hangs back.
+    patience: Patience,
     give_up_speed: f64,
     look: f64,
     linger: f64,
@@ -272,8 +271,7 @@ impl PedestrianWorld {
             walk,
             decide_at,
             step_speed,
-            patience,
-            waited: 0.0,
+            patience: Patience::new(patience),
             give_up_speed,
             look,
             linger,
@@ -332,7 +330,7 @@ impl World for PedestrianWorld {
         // The pedestrian watches the car from the start: hang-back counts
         // whenever the car's motion does not say it is going first.
         if ego.s < -X_HALF && !self.ego_going(ego) {
-            self.waited += dt;
+            self.patience.hang_back(dt);
         }
         let target = match self.phase {
             Phase::ToKerb => {
@@ -382,7 +380,7 @@ impl World for PedestrianWorld {
                         _ => since,
                     };
                     let deciding = t + 1e-9 >= decided + self.look;
-                    if deciding && self.waited + 1e-9 >= self.patience {
+                    if deciding && self.patience.run_out() {
                         self.revealed = true;
                         self.phase = Phase::Cross {
                             speed: self.give_up_speed,

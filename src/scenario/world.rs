@@ -144,6 +144,30 @@ pub fn car_box(x: f64, y: f64, along_x: bool) -> Aabb {
     if along_x { Aabb::centered(x, y, CAR_LENGTH, CAR_WIDTH) } else { Aabb::centered(x, y, CAR_WIDTH, CAR_LENGTH) }
 }
 
+/// The patience of a road user waiting for the ego to go first: it runs
+/// out once the ego has hung back for `patience_s` *in all*. Going again in
+/// between does not reset it, so no rhythm of surges and lulls outlasts it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Patience {
+    patience_s: f64,
+    hung_back_s: f64,
+}
+
+impl Patience {
+    pub(crate) fn new(patience_s: f64) -> Self {
+        Patience { patience_s, hung_back_s: 0.0 }
+    }
+
+    /// The ego hung back for `dt` more seconds.
+    pub(crate) fn hang_back(&mut self, dt: f64) {
+        self.hung_back_s += dt;
+    }
+
+    pub(crate) fn run_out(&self) -> bool {
+        self.hung_back_s + 1e-9 >= self.patience_s
+    }
+}
+
 /// The ego as another road user sees it: where it is relative to the
 /// conflict and how it moves. Reactions of other road users are functions
 /// of this, never of the ego's action.

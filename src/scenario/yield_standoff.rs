@@ -31,7 +31,7 @@
 //! Frame: the ego drives along +y at x = 0, the crossing cars along +x at
 //! y = 0; positions are box centres, the crossing centre is the origin.
 
-use super::world::{Contact, EgoApproach, History, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
+use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use crate::action::{Action, Maneuver};
 use crate::observation::{Sample, Scene, Track};
@@ -210,9 +210,8 @@ pub struct YieldWorld {
     /// Fixed deceleration of the tier-3 common braking profile.
     profile_decel: f64,
     revealed: bool,
-    /// Hang-back the yielder tolerates once stopped, and how much it saw.
-    patience: f64,
-    hung_back: f64,
+    /// Hang-back the yielder tolerates once stopped.
+    patience: Patience,
     /// How long a tier-3 bluffer rolls at its floor for an ego that hangs back.
     hold: f64,
     /// Newell follower: lag (s) and jam spacing (m) behind the first car.
@@ -275,8 +274,7 @@ impl YieldWorld {
             phase,
             profile_decel,
             revealed: false,
-            patience,
-            hung_back: 0.0,
+            patience: Patience::new(patience),
             hold,
             lag,
             spacing,
@@ -328,10 +326,10 @@ impl YieldWorld {
         }
         if self.phase == Phase::Stopped {
             if !self.ego_coming(ego) {
-                self.hung_back += dt;
+                self.patience.hang_back(dt);
             }
             let passed = ego.s > HALF_ZONE;
-            let turn = self.hung_back + 1e-9 >= self.patience && !self.approach(ego).beyond_stopping();
+            let turn = self.patience.run_out() && !self.approach(ego).beyond_stopping();
             if passed || turn {
                 self.phase = Phase::Going { accel: self.params.other.go_accel_mps2 };
             }

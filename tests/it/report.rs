@@ -282,16 +282,21 @@ fn pass_k_counts_only_seeds_with_every_rollout() {
     assert!(close(lb.scenarios[0].as_ref().unwrap().success.estimate, expected));
 }
 
+/// One model's run of yield_standoff tier 1 over `seeds` seeds: a success
+/// where `wins`, else `loss`.
+fn write_wins(root: &Path, model: &str, seeds: u64, wins: &dyn Fn(u64) -> bool, loss: Outcome) {
+    let h = hash(model, None);
+    let lines: Vec<String> = (0..seeds)
+        .map(|s| line(model, &h, ScenarioKind::YieldStandoff, 1, s, 0, if wins(s) { Outcome::Success } else { loss }))
+        .collect();
+    write_run(&root.join(model), &RunSpec { seeds, ..spec(model) }, &lines);
+}
+
 #[test]
 fn paired_comparison_on_a_constructed_pair() {
     let root = scratch("report-paired");
-    let ys = ScenarioKind::YieldStandoff;
     let run = |model: &str, wins: &dyn Fn(u64) -> bool, seeds: u64| {
-        let h = hash(model, None);
-        let lines: Vec<String> = (0..seeds)
-            .map(|s| line(model, &h, ys, 1, s, 0, if wins(s) { Outcome::Success } else { Outcome::Collision }))
-            .collect();
-        write_run(&root.join(model), &RunSpec { seeds, ..spec(model) }, &lines);
+        write_wins(&root, model, seeds, wins, Outcome::Collision);
     };
     // Shared seeds 0..40: A wins 0..30; B wins 0..22 and 35..37. B has 10 extra seeds it wins.
     run("a", &|s| s < 30, 40);
@@ -318,13 +323,7 @@ fn paired_comparison_on_a_constructed_pair() {
     assert_eq!(p.seeds_for_power, Some(85));
     // A clear gap is not tied.
     let root2 = scratch("report-paired2");
-    let run2 = |model: &str, wins: &dyn Fn(u64) -> bool| {
-        let h = hash(model, None);
-        let lines: Vec<String> = (0..60)
-            .map(|s| line(model, &h, ys, 1, s, 0, if wins(s) { Outcome::Success } else { Outcome::Timeout }))
-            .collect();
-        write_run(&root2.join(model), &RunSpec { seeds: 60, ..spec(model) }, &lines);
-    };
+    let run2 = |model: &str, wins: &dyn Fn(u64) -> bool| write_wins(&root2, model, 60, wins, Outcome::Timeout);
     run2("strong", &|s| s < 55);
     run2("weak", &|s| s < 20);
     let built = report::build_from(load_dirs(std::slice::from_ref(&root2)).unwrap(), refs(), &opts()).unwrap();
@@ -336,13 +335,7 @@ fn paired_comparison_on_a_constructed_pair() {
     // A CI that excludes 0 with an exact test that does not: 4 discordant pairs of 200, all one way.
     // +0.02 [+0.005, +0.04] but McNemar p = 2/16 = 0.125: no significant difference.
     let root3 = scratch("report-paired3");
-    let run3 = |model: &str, wins: &dyn Fn(u64) -> bool| {
-        let h = hash(model, None);
-        let lines: Vec<String> = (0..200)
-            .map(|s| line(model, &h, ys, 1, s, 0, if wins(s) { Outcome::Success } else { Outcome::Timeout }))
-            .collect();
-        write_run(&root3.join(model), &RunSpec { seeds: 200, ..spec(model) }, &lines);
-    };
+    let run3 = |model: &str, wins: &dyn Fn(u64) -> bool| write_wins(&root3, model, 200, wins, Outcome::Timeout);
     run3("hi", &|s| s < 104);
     run3("lo", &|s| s < 100);
     let built = report::build_from(load_dirs(std::slice::from_ref(&root3)).unwrap(), refs(), &opts()).unwrap();
