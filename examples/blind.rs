@@ -1,7 +1,8 @@
 //! Development aid: the blind-policy search and the expert on chosen cells.
 //! `cargo run --release --example blind -- [scenario] [tier] [budget]`
 //! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file instead of the
-//! built-in one; `FULL=1` prints the plans found in full.
+//! built-in one; `FULL=1` prints the plans found in full; `SEARCH_SEED=n`
+//! reseeds the search (default 1).
 use negotiator::adversary::{SearchSpec, TRAIN_SEED_BASE, evaluate, search};
 use negotiator::baselines::Cell;
 use negotiator::baselines::run_cell;
@@ -25,11 +26,12 @@ fn main() {
     };
     let budget: usize = args.get(2).map_or(negotiator::adversary::DEFAULT_BUDGET, |b| b.parse().unwrap());
     let held: Vec<u64> = (0..400).collect();
+    let search_seed: u64 = std::env::var("SEARCH_SEED").map_or(1, |s| s.parse().unwrap());
     for &s in &scenarios {
         for &t in &tiers {
             let config = set.get(s);
             let start = std::time::Instant::now();
-            let f = search(config, t, SearchSpec { budget, train_seed_base: TRAIN_SEED_BASE, search_seed: 1 });
+            let f = search(config, t, SearchSpec { budget, train_seed_base: TRAIN_SEED_BASE, search_seed });
             let held_score = evaluate(config, t, &f.best, &held);
             let held_c = evaluate(config, t, &f.best_correctness, &held);
             let stats = |p: PolicyKind| {

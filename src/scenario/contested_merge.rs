@@ -2,8 +2,9 @@
 //! alongside the ego `makes_room` (drops back to open a gap ahead of itself)
 //! or is `committed` (holds the lane; in tier 3 it first opens the gap like a
 //! car making room and closes it when the ego's motion shows it takes the
-//! bait). A second car follows the lane car closely (a platoon), so merging
-//! behind is right only when the lane car goes first.
+//! bait). A second car follows the lane car (a platoon) and closes the door
+//! on a cut-in between them, so merging behind is right only once both have
+//! passed, which is right only when the lane car goes first.
 //!
 //! Mechanisms (every reaction is a function of the ego's kinematic state):
 //! - a car holding the lane keeps an ego that is alongside on the ramp boxed
@@ -11,6 +12,11 @@
 //!   it (up to `deny_extra_mps` faster), so a racing ego arrives alongside it
 //!   at the merge point, and only an ego that drops below its cruise gets
 //!   behind it;
+//! - the follower closes the door: while an ego on the ramp is beside the
+//!   gap between the lane car and itself, it draws up to `door_gap_m`
+//!   behind the lane car (plus a short headway, shorter than a car at every
+//!   speed), matching the lane car's acceleration, so that the only places
+//!   to merge are ahead of the lane car and behind the follower;
 //! - a car making room measures the ego's pace against a *shadow*: where a
 //!   committed car would be, given the same ego. The ego keeps pace while it
 //!   does not brake and is due at the merge point before the shadow would
@@ -20,8 +26,9 @@
 //!   front overlapping the ego's rear) and, once the ego has hung back for
 //!   its patience in all (drawn per seed; keeping pace in between does not
 //!   reset it) or braked hard close to the merge point, takes its turn: it
-//!   passes only a little faster than the ego and pulls away gently, the
-//!   follower closing up behind it;
+//!   passes only a little faster than the ego (braking with an ego that
+//!   brakes) until it has cleared the merge point, and pulls away gently,
+//!   the follower closing the door behind it;
 //! - tier 3 (merge bluff): both dispositions first ease off (more gently
 //!   than on tier 1) to `floor_fraction` of the cruise; only a car making
 //!   room slows further. Once its easing off is on show, the bluffer closes
@@ -37,7 +44,10 @@
 //! Why each blind play loses:
 //! - racing: a committed car is level with the ego at the merge point under
 //!   every geometry drawn (tier 3: the bluffer, which stayed within reach
-//!   while it eased off, closes back to level);
+//!   while it eased off, closes back to level, from its floor too);
+//! - slipping in behind the lane car (a little slower than it): the
+//!   follower has closed the door, so under either disposition only the
+//!   gaps ahead of the lane car and behind the follower are open;
 //! - arriving late (after a committed car would have cleared): to a car
 //!   making room that is hanging back, so it covers the ego and then passes
 //!   it slowly with its follower close behind: the ego meets it alongside;
@@ -45,14 +55,16 @@
 //!   `late_brake_within_m` of the merge point hangs back at once;
 //! - outwaiting: a car making room that covered a slow ego passes it only a
 //!   little faster than it goes and pulls away gently, so waiting for both
-//!   lane cars costs more than the turn budget leaves;
+//!   lane cars costs more than the turn budget leaves; dragging it up to
+//!   speed first and then braking hard does not help, since it brakes
+//!   with the ego until it has cleared the merge point;
 //! - surging and lulling (keeping pace in bursts to arrive just behind a
 //!   committed car while holding a car making room): the patience is
 //!   cumulative, so the lulls add up and the car takes its turn.
 //!
-//! The best blind schedules found keep a jittery middle pace and succeed in
-//! about 0.55-0.65 of episodes at the default search budget (0.65-0.70 at
-//! 200,000 episodes); see the README's validate block.
+//! The best blind plans found succeed under one disposition only: about
+//! half the episodes, at the default search budget and at 2,000,000
+//! episodes alike (see the README's validate block).
 //!
 //! The cue follower goes while the lane car brakes, or has eased off and is
 //! behind the ego's centre: on tier 3 the bluffer's easing off is that cue.
@@ -88,6 +100,12 @@ const EASE_BACK_MPS2: f64 = 1.0;
 /// A car holding the lane closes on level with an ego alongside at this
 /// rate (1/s): it keeps the ego boxed in while the ego drives faster.
 const DENY_LEVEL_GAIN: f64 = 0.5;
+/// A follower closing the door on an ego keeps this time headway (s) ...
+const DOOR_HEADWAY_S: f64 = 0.15;
+/// ... tracking its gap and the lane car's speed with these gains (1/s^2,
+/// 1/s: critically damped).
+const DOOR_GAP_GAIN: f64 = 1.0;
+const DOOR_SPEED_GAIN: f64 = 2.0;
 /// A tier-3 bluffer has shown its bait once it has eased off this much
 /// below its cruise (m/s).
 const BAIT_EASE_MPS: f64 = 1.5;
@@ -160,6 +178,11 @@ pub struct MergeLane {
     pub pass_speed_mps: f64,
     /// Once past, it pulls back up to its cruise speed this gently (m/s^2).
     pub resume_accel_mps2: f64,
+    /// While an ego on the ramp is beside the gap between the lane car and
+    /// its follower, the follower closes up to this bumper gap (m).
+    pub door_gap_m: f64,
+    /// ... accelerating at most this hard to do so (m/s^2).
+    pub door_accel_mps2: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -212,6 +235,8 @@ impl MergeParams {
         c.within("lane.pass_margin_mps", lane.pass_margin_mps, 0.1, 10.0)?;
         c.within("lane.pass_speed_mps", lane.pass_speed_mps, 0.5, 15.0)?;
         c.within("lane.resume_accel_mps2", lane.resume_accel_mps2, 0.3, 5.0)?;
+        c.within("lane.door_gap_m", lane.door_gap_m, 0.0, 50.0)?;
+        c.within("lane.door_accel_mps2", lane.door_accel_mps2, 0.3, 6.0)?;
         c.within("idm.accel", self.idm.accel, 0.3, 5.0)?;
         c.within("idm.brake", self.idm.brake, 0.5, 8.0)?;
         c.within("idm.headway", self.idm.headway, 0.1, 5.0)?;
@@ -365,6 +390,39 @@ impl MergeWorld {
         ego.a > PACE_MIN_ACCEL && t + approach.eta(v_max) <= shadow_clear + self.params.lane.pace_tolerance_s
     }
 
+    /// The follower: a platoon member at a short headway, which
+    /// closes the door while an ego on the ramp is beside the gap between
+    /// them (it could cut in): it then keeps `door_gap_m` (plus a short
+    /// headway) behind the lane car, matching its acceleration as well as
+    /// its speed, so that the gap stays shorter than a car however the lane
+    /// car moves (a car taking its turn may pull away from a slow ego hard).
+    /// Never closer than a standstill gap to whatever is ahead.
+    fn follower_accel(&self, a_lane: f64, ego: &Body) -> f64 {
+        let p = &self.params.lane;
+        let (lane, follower) = (self.lane_car, self.follower);
+        let leader = self.leader(&follower, Some(&lane), ego);
+        let door_open = !self.ego_in_lane(ego) && ego.s > follower.s - CAR_LENGTH && ego.s < lane.s + CAR_LENGTH;
+        if !door_open {
+            let idm = Idm {
+                accel: p.deny_accel_mps2,
+                headway: p.follower_headway_s,
+                min_gap: p.follower_min_gap_m,
+                ..self.params.idm
+            };
+            return idm.accel(follower.v, self.cruise, leader);
+        }
+        let gap = lane.s - follower.s - CAR_LENGTH;
+        let want = a_lane
+            + DOOR_GAP_GAIN * (gap - p.door_gap_m - DOOR_HEADWAY_S * follower.v)
+            + DOOR_SPEED_GAIN * (lane.v - follower.v);
+        let safe = Idm { accel: p.door_accel_mps2, min_gap: 1.0, headway: 0.0, ..self.params.idm }.accel(
+            follower.v,
+            f64::INFINITY,
+            leader,
+        );
+        want.min(safe).clamp(-self.params.idm.max_brake, p.door_accel_mps2)
+    }
+
     /// Whether the ego brakes hard close to the merge point: to a car that
     /// was making room, hanging back at once.
     fn ego_brakes_late(&self, ego: &Body) -> bool {
@@ -396,7 +454,10 @@ impl MergeWorld {
         let lane = self.lane_car;
         let p = &self.params.lane;
         let rel = lane.s - ego.s;
-        if !self.ego_in_lane(ego) && rel < CAR_LENGTH + 1.0 {
+        // Until it has cleared the merge point it stays within reach of an
+        // ego on the ramp: an ego that braked hard is passed slowly too.
+        let clearing = lane.s < self.merge_point + CAR_LENGTH;
+        if !self.ego_in_lane(ego) && (rel < CAR_LENGTH + 1.0 || clearing) {
             // Near the ego on the ramp: keep just ahead of it (catching up
             // if behind), however it moves, so that it cannot cut in ahead.
             let behind = (-rel).max(0.0);
@@ -440,6 +501,19 @@ impl MergeWorld {
         track_speed(lane.v, target, self.params.idm.accel, decel, dt)
     }
 
+    /// A bluffer closing the gap: back to level with the ego, hard; then
+    /// holding the lane.
+    fn close_accel(&mut self, ego: &Body, dt: f64) -> f64 {
+        let lane = self.lane_car;
+        let rel = lane.s - ego.s;
+        if rel > -1.0 || self.ego_in_lane(ego) {
+            self.phase = Phase::Hold;
+        }
+        let target =
+            (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.cruise + self.params.lane.deny_extra_mps);
+        track_speed(lane.v, target, self.params.tier3.close_accel_mps2, 3.0, dt)
+    }
+
     fn lane_car_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
         let idm = self.params.idm;
         let lane = self.lane_car;
@@ -473,16 +547,7 @@ impl MergeWorld {
         match self.phase {
             Phase::Hold => respect(self.hold_accel(self.lane_car, ego, dt)),
             Phase::TakeTurn => respect(self.take_turn_accel(ego, dt)),
-            Phase::Close => {
-                // Back to level with the ego, hard; then hold the lane.
-                let rel = lane.s - ego.s;
-                if rel > -1.0 || self.ego_in_lane(ego) {
-                    self.phase = Phase::Hold;
-                }
-                let target =
-                    (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.cruise + self.params.lane.deny_extra_mps);
-                respect(track_speed(lane.v, target, self.params.tier3.close_accel_mps2, 3.0, dt))
-            }
+            Phase::Close => respect(self.close_accel(ego, dt)),
             Phase::Open { floor_since } => {
                 if makes_room {
                     let floor = if self.tier == Tier::T3 && !self.revealed { floor } else { 0.0 };
@@ -506,6 +571,7 @@ impl MergeWorld {
                 if ego_commits {
                     self.revealed = true;
                     self.phase = Phase::Close;
+                    return respect(self.close_accel(ego, dt));
                 }
                 if lane.v <= floor + 1e-9 {
                     let since = floor_since.unwrap_or(t);
@@ -546,14 +612,7 @@ impl World for MergeWorld {
         let a_lane = self.lane_car_accel(ego, t, dt);
         let a_shadow = self.hold_accel(self.shadow, ego, dt);
         self.shadow.advance(a_shadow, dt);
-        let leader = self.leader(&self.follower, Some(&self.lane_car), ego);
-        let follower_idm = Idm {
-            accel: self.params.lane.deny_accel_mps2,
-            headway: self.params.lane.follower_headway_s,
-            min_gap: self.params.lane.follower_min_gap_m,
-            ..self.params.idm
-        };
-        let a_follow = follower_idm.accel(self.follower.v, self.cruise, leader);
+        let a_follow = self.follower_accel(a_lane, ego);
         self.lane_car.advance(a_lane, dt);
         self.follower.advance(a_follow, dt);
     }

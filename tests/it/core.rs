@@ -70,7 +70,11 @@ fn golden_vectors_pin_trajectories() {
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 2.7515) v 2.5000 reward -0.152324 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (88.9366, 0.0000) v 11.9114 reward -0.279279 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (35.4264, 0.0000) v 6.5000 reward -0.279279 dc 0.000");
+    let ease =
+        [Action::new(Maneuver::Yield, 0.3), Action::new(Maneuver::Proceed, 0.5), Action::new(Maneuver::Proceed, 0.5)];
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 4, &ease), @"committed collision turns 7 t 3.3 ego (14.7475, -1.7795) v 12.2868 other (15.8914, 0.0000) v 12.2335 reward -1.000000 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T3, 6, &ease), @"committed collision turns 8 t 4.0 ego (14.2007, -1.8433) v 11.7997 other (15.2247, 0.0000) v 11.2528 reward -1.000000 dc 0.000");
 }
 
 #[test]
@@ -306,11 +310,11 @@ fn other_road_users_never_see_the_label() {
     }
 }
 
-/// The blind plays the scenario design names, built by hand, lose on the
-/// pedestrian and intersection scenarios: racing (full throttle),
-/// outwaiting (creep to the conflict, hold, then go) and, at the
-/// intersection, arriving 2 s or 4 s after a full-throttle ego would (just
-/// behind a committed pair, or after a yielding pair has pulled away).
+/// The blind plays the scenario design names, built by hand, lose on every
+/// scenario: racing (full throttle), outwaiting (creep to the conflict,
+/// hold, then go) and arriving 2 s or 4 s after a full-throttle ego would
+/// (just behind a committed pair, or after a yielding pair has pulled
+/// away).
 #[test]
 fn racing_and_outwaiting_lose() {
     use negotiator::adversary::{BlindPlan, evaluate};
@@ -320,7 +324,7 @@ fn racing_and_outwaiting_lose() {
     let outwait = BlindPlan::CreepHoldGo { approach: 4, distance_m: 2.0, hold: 10, hold_turns: 6, go: 2 };
     let behind = BlindPlan::TimedArrival { arrive_s: 2.0, relative: true };
     let late = BlindPlan::TimedArrival { arrive_s: 4.0, relative: true };
-    for kind in [ScenarioKind::PedestrianFeint, ScenarioKind::YieldStandoff] {
+    for kind in ScenarioKind::ALL {
         for tier in Tier::ALL {
             let config = set.get(kind);
             let cells = grid(&set, &[kind], &[tier], 120);
@@ -332,6 +336,115 @@ fn racing_and_outwaiting_lose() {
                     "{kind}/t{tier}: {plan} wins {blind:.3} vs expert {expert:.3}"
                 );
             }
+        }
+    }
+}
+
+/// Blind merge plays that larger searches found against earlier designs
+/// each succeed under one disposition at most: slipping in behind the lane
+/// car (the follower closes the door), a jittery middle pace, baiting a
+/// tier-3 bluffer that has reached its floor (it still closes), and
+/// hanging back or dragging a car making room up to speed before braking
+/// hard to let both lane cars pass (it brakes with the ego until it has
+/// cleared the merge point, so waiting for both does not fit the budget).
+#[test]
+fn blind_merge_plays_win_under_one_disposition_at_most() {
+    use Maneuver::{NudgeForward as N, Proceed as P, Stop as S, Yield as Y};
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::ContestedMerge);
+    let plays: [(&str, &[(Maneuver, f64, usize)]); 5] = [
+        ("slip in behind", &[(S, 0.5, 1), (P, 0.5, 1)]),
+        (
+            "jittery middle pace",
+            &[
+                (S, 0.5, 1),
+                (P, 0.5, 1),
+                (P, 1.0, 1),
+                (P, 0.5, 1),
+                (P, 0.0, 1),
+                (Y, 0.0, 1),
+                (N, 1.0, 1),
+                (P, 1.0, 1),
+                (N, 0.5, 1),
+                (Y, 0.0, 1),
+                (P, 0.5, 3),
+                (N, 0.5, 1),
+                (P, 0.5, 2),
+                (Y, 0.5, 1),
+                (P, 0.5, 1),
+                (N, 0.0, 1),
+                (P, 0.5, 1),
+            ],
+        ),
+        (
+            "bait at the floor",
+            &[
+                (P, 0.5, 1),
+                (Y, 1.0, 1),
+                (N, 0.5, 1),
+                (P, 1.0, 2),
+                (P, 0.5, 3),
+                (P, 0.0, 1),
+                (P, 1.0, 6),
+                (P, 0.5, 1),
+                (P, 1.0, 2),
+                (N, 0.5, 1),
+                (S, 0.0, 1),
+                (S, 0.5, 1),
+                (N, 0.5, 1),
+                (Y, 1.0, 1),
+                (P, 1.0, 1),
+            ],
+        ),
+        (
+            "hang back, then brake late",
+            &[(Y, 0.0, 3), (P, 0.0, 1), (P, 0.5, 1), (S, 1.0, 3), (P, 0.5, 3), (P, 0.0, 1), (P, 0.5, 1)],
+        ),
+        (
+            "drag up to speed, then brake",
+            &[
+                (S, 0.5, 1),
+                (N, 1.0, 1),
+                (P, 0.5, 1),
+                (P, 0.0, 1),
+                (P, 0.5, 1),
+                (P, 1.0, 1),
+                (P, 0.0, 1),
+                (S, 1.0, 1),
+                (N, 1.0, 1),
+                (N, 0.0, 2),
+                (P, 1.0, 1),
+                (P, 0.5, 4),
+                (P, 1.0, 1),
+                (P, 0.5, 3),
+                (P, 0.0, 1),
+                (Y, 0.0, 1),
+                (P, 1.0, 2),
+                (Y, 0.0, 1),
+            ],
+        ),
+    ];
+    let n = 120;
+    for (name, runs) in plays {
+        let schedule: Vec<Action> =
+            runs.iter().flat_map(|&(m, a, k)| std::iter::repeat_n(Action::new(m, a), k)).collect();
+        for tier in Tier::ALL {
+            let success = |disposition| {
+                let wins = (0..n)
+                    .filter(|&seed| {
+                        let mut ep = Episode::with_disposition(config, tier, seed, disposition);
+                        let mut turn = 0;
+                        while !ep.is_done() {
+                            ep.step(schedule[turn.min(schedule.len() - 1)]);
+                            turn += 1;
+                        }
+                        ep.finish().outcome == Outcome::Success
+                    })
+                    .count();
+                wins as f64 / n as f64
+            };
+            let [a, b] = ScenarioKind::ContestedMerge.dispositions().map(success);
+            assert!(a.min(b) <= 0.15, "t{tier} {name}: success {a:.3} and {b:.3} under the two dispositions");
         }
     }
 }
@@ -378,6 +491,28 @@ fn blind_search_catches_a_yielder_who_never_gives_up() {
         ScenarioKind::YieldStandoff,
         include_str!("../../scenarios/yield_standoff.toml"),
         &[("turn_budget = 22", "turn_budget = 40"), ("patience_s = [0.2, 0.5]", "patience_s = [25.0, 30.0]")],
+    );
+}
+
+/// A car making room that rushes past once it takes its turn (instead of
+/// passing only a little faster than the ego) lets a blind ego outwait
+/// both dispositions on the merge, and the search finds it.
+#[test]
+fn blind_search_catches_a_merge_car_that_rushes_past_when_it_takes_its_turn() {
+    assert_blind_search_catches(
+        ScenarioKind::ContestedMerge,
+        include_str!("../../scenarios/contested_merge.toml"),
+        &[("pass_margin_mps = 1.5", "pass_margin_mps = 6.0")],
+    );
+}
+
+/// So does a turn budget long enough to wait for both lane cars.
+#[test]
+fn blind_search_catches_a_merge_budget_that_fits_outwaiting() {
+    assert_blind_search_catches(
+        ScenarioKind::ContestedMerge,
+        include_str!("../../scenarios/contested_merge.toml"),
+        &[("turn_budget = 25", "turn_budget = 40")],
     );
 }
 

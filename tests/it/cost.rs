@@ -331,9 +331,9 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | pedestrian_feint | 1 | 3 | 13.00 | 18 | 26794 | 86.7% | 329 |
     | pedestrian_feint | 2 | 3 | 15.67 | 18 | 37823 | 88.9% | 400 |
     | pedestrian_feint | 3 | 3 | 13.00 | 18 | 26793 | 86.8% | 329 |
-    | contested_merge | 1 | 3 | 17.67 | 25 | 56278 | 90.3% | 457 |
-    | contested_merge | 2 | 3 | 23.67 | 25 | 92351 | 92.2% | 630 |
-    | contested_merge | 3 | 3 | 21.00 | 25 | 76106 | 91.6% | 549 |
+    | contested_merge | 1 | 3 | 17.33 | 25 | 53916 | 90.1% | 454 |
+    | contested_merge | 2 | 3 | 22.67 | 25 | 85059 | 91.9% | 614 |
+    | contested_merge | 3 | 3 | 19.67 | 25 | 66792 | 91.0% | 518 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");
     let (turns, prompt, completion) = expected_line(&plan);
