@@ -352,7 +352,9 @@ fn blind_merge_plays_win_under_one_disposition_at_most() {
     use Maneuver::{NudgeForward as N, Proceed as P, Stop as S, Yield as Y};
     let set = ScenarioSet::default();
     let config = set.get(ScenarioKind::ContestedMerge);
-    let plays: [(&str, &[(Maneuver, f64, usize)]); 5] = [
+    /// Runs of (maneuver, strength, turns); the last run repeats.
+    type Runs = &'static [(Maneuver, f64, usize)];
+    let plays: [(&str, Runs); 5] = [
         ("slip in behind", &[(S, 0.5, 1), (P, 0.5, 1)]),
         (
             "jittery middle pace",
