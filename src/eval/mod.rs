@@ -237,8 +237,8 @@ pub fn git_revision() -> String {
 }
 
 /// Run (or resume) an evaluation, telling `reporter` what happens. The
-/// three phases are [`prepare`] (directory, resume, run.json), [`drive`]
-/// (the episodes) and [`finalize`] (totals, status, summary).
+/// three phases are `prepare` (directory, resume, run.json), `drive`
+/// (the episodes) and `finalize` (totals, status, summary).
 pub async fn run(options: EvalOptions, reporter: &mut dyn Reporter) -> Result<RunOutcome, EvalError> {
     let counters = Arc::new(Counters::default());
     counters.priced.store(options.pricing.is_some(), Relaxed);
@@ -438,7 +438,7 @@ fn running_info(
     }
 }
 
-/// How [`drive`] ended.
+/// How `drive` ended.
 struct Drove {
     stop: Option<StopReason>,
     /// The endpoint refused or rejected a request.
@@ -447,7 +447,7 @@ struct Drove {
     failure: Option<EvalError>,
 }
 
-/// The state of [`drive`] between episodes.
+/// The state of `drive` between episodes.
 struct Driver<'a> {
     run: &'a mut Prepared,
     reporter: &'a mut dyn Reporter,
@@ -472,7 +472,7 @@ impl Driver<'_> {
     }
 
     /// A finished episode: hand its line to the writer and count it. False
-    /// if the writer is gone (its error is reported by [`finalize`]).
+    /// if the writer is gone (its error is reported by `finalize`).
     fn finished(&mut self, key: EpisodeKey, scalars: EpisodeScalars, line: String) -> bool {
         let counters = &self.run.ctx.counters;
         self.infra_streak = 0;

@@ -1,7 +1,7 @@
-//! The table system, modelled on hyperfine's `markup.rs`: a [`Table`] is
-//! rows of typed [`Cell`]s under [`Column`]s defined once (display header,
+//! The table system, modelled on hyperfine's `markup.rs`: a `Table` is
+//! rows of typed `Cell`s under `Column`s defined once (display header,
 //! CSV/JSON key, style), and each format renders any table through the one
-//! [`Exporter`] trait, one file per format. The baseline grid, `eval`'s
+//! `Exporter` trait, one file per format. The baseline grid, `eval`'s
 //! summary and every `report` table are built this way.
 
 mod csv;

@@ -3,7 +3,7 @@
 //! [`crate::stats`].
 //!
 //! Every interval is a percentile bootstrap 95% interval: the type-7
-//! quantiles ([`crate::stats::quantile`]) at 0.025 and 0.975 of the sorted
+//! quantiles (`crate::stats::quantile`) at 0.025 and 0.975 of the sorted
 //! replicate statistics. Each statistic has its own fixed seed derived from
 //! what it is (so adding a model never changes another model's interval),
 //! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,

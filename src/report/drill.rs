@@ -5,8 +5,8 @@
 //! each), but transcripts only for up to `per_cell` episodes of each
 //! (model, scenario, tier) cell — the first collision, the first timeout
 //! and the first success by seed, then the lowest seeds — taken cell by
-//! cell in rounds until [`TRANSCRIPT_BUDGET`] bytes of transcript JSON are
-//! embedded. Replies and provider reasoning longer than [`MAX_TEXT`]
+//! cell in rounds until `TRANSCRIPT_BUDGET` bytes of transcript JSON are
+//! embedded. Replies and provider reasoning longer than `MAX_TEXT`
 //! characters are cut, and scene lines are stored once (a string table).
 
 use super::ReportError;

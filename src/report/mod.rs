@@ -4,7 +4,7 @@
 //!
 //! Layout: [`load`] reads and merges run directories; [`tables`] builds the
 //! leaderboard, per-tier, outcome and cost tables; [`paired`] the pairwise
-//! comparisons; [`passk`] pass^k; [`timing`] guess rate and evidence lag; [`reference`] the expert ceiling and
+//! comparisons; [`passk`] pass^k; [`timing`] guess rate and evidence lag; [`reference`](mod@reference) the expert ceiling and
 //! `always_proceed` floor; [`boot`] the report's bootstraps; [`drill`] the
 //! drill-down data; [`pick`] the episodes the trajectory figures and
 //! maneuver timelines draw; [`plots`] one file per kind of figure; [`html`] the page.

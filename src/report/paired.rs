@@ -4,7 +4,7 @@
 //!
 //! - Difference: mean over shared keys of (success A − success B), each
 //!   key's success being its rate over rollouts; 95% paired percentile
-//!   bootstrap CI resampling the keys ([`crate::stats::paired_bootstrap_diff_ci`]).
+//!   bootstrap CI resampling the keys (`crate::stats::paired_bootstrap_diff_ci`).
 //! - Exact two-sided McNemar test on the discordant pairs: A succeeded and
 //!   B failed (`a_only`) against the reverse (`b_only`). With several
 //!   rollouts per seed the test uses each key's lowest rollout index that
@@ -13,10 +13,10 @@
 //!   McNemar p is below 0.05, in the same direction; otherwise "no
 //!   significant difference" (saying so when the two disagree). The
 //!   verdict names the shared keys it rests on and flags fewer than
-//!   [`FEW_DISCORDANT`] discordant pairs.
+//!   `FEW_DISCORDANT` discordant pairs.
 //! - Power: for a pair with no significant difference, the seeds per
 //!   (scenario, tier) cell a paired McNemar test needs to detect the
-//!   observed difference with 80% power ([`mcnemar_keys_for_power`]).
+//!   observed difference with 80% power (`mcnemar_keys_for_power`).
 
 use super::boot::{paired_ci, seed_for};
 use super::load::ModelData;

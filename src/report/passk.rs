@@ -1,6 +1,6 @@
 //! pass^k for runs with several rollouts per seed (`eval -r R`, R > 1):
 //! the mean over seeds of C(c, k) / C(R, k), c the seed's successes among
-//! its R rollouts ([`crate::stats::mean_pass_hat_k`]) — the chance that k
+//! its R rollouts (`crate::stats::mean_pass_hat_k`) — the chance that k
 //! rollouts drawn from the seed's all succeed. Only seeds with all R
 //! rollouts count; the others are excluded and their number shown.
 

@@ -8,7 +8,7 @@
 //!
 //! Until the reveal both dispositions move identically: same start, same
 //! walking speed, same stop at the kerb (tier 3). Every reaction is a
-//! function of the ego's kinematic state only ([`EgoApproach`]).
+//! function of the ego's kinematic state only (`EgoApproach`).
 //!
 //! Tiers (all timings drawn per seed and tied to the ego's own full-throttle
 //! arrival at the crossing line, `t_race`):

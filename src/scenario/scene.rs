@@ -133,7 +133,7 @@ impl Scene {
         }
     }
 
-    /// The road users' tracks, in the order of [`ScenarioKind::track_labels`].
+    /// The road users' tracks, in the order of `ScenarioKind::track_labels`.
     pub fn tracks(&self) -> Vec<Track> {
         match *self {
             Scene::YieldStandoff { other, follower, .. } => vec![other, follower],
