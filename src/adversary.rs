@@ -16,8 +16,9 @@
 //! Candidates are ranked by successive halving on training seeds (all on a
 //! few seeds, the best tenth on more, the best few on many), and the winner
 //! is measured on held-out seeds that the search never saw. The signature
-//! of a playing plan's `act` is the guarantee that a candidate is blind: it receives
-//! an [`EgoState`], which holds nothing about the other road user.
+//! of a playing plan's `act` is the guarantee that a candidate is blind:
+//! it receives an [`EgoState`], which holds nothing about the other road
+//! user.
 
 use crate::action::{Action, Maneuver};
 use crate::episode::{Episode, Outcome};
