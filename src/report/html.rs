@@ -330,7 +330,9 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     s.push_str("<h2 id=\"trajectories\">Trajectories</h2>");
     let trajectories: Vec<_> = report.plots.iter().filter(|p| is_episode_figure(p)).collect();
     if trajectories.is_empty() {
-        s.push_str("<p class=\"note\">No episode with a recorded trajectory (runs made with --no-trajectories).</p>");
+        s.push_str("<p class=\"note\">No episode with recorded turns to draw.</p>");
+    } else if !report.plots.iter().any(|p| p.name.starts_with("trajectory_")) {
+        s.push_str("<p class=\"note\">No episode with a recorded trajectory (runs made with --no-trajectories): maneuver timelines only.</p>");
     }
     for p in trajectories {
         figure(&mut s, p);

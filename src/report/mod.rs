@@ -280,12 +280,16 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     if transcripts.len() < chosen.len() {
         warnings.push(format!("{} transcript line(s) could not be read in full", chosen.len() - transcripts.len()));
     }
-    let trajectories: Vec<drill::Loaded> = if picked.is_empty() {
-        pick::default_trajectories(&leaderboard, &data, &transcripts)
+    let (trajectories, timeline_sources) = if picked.is_empty() {
+        let trajectories = pick::default_trajectories(&leaderboard, &data, &transcripts);
+        let sources = pick::default_timeline_sources(&leaderboard, &data, &transcripts, &trajectories);
+        (trajectories, sources)
     } else {
-        picked.iter().filter_map(|&p| transcripts.iter().find(|l| (l.model, l.episode) == p).cloned()).collect()
+        let named: Vec<drill::Loaded> =
+            picked.iter().filter_map(|&p| transcripts.iter().find(|l| (l.model, l.episode) == p).cloned()).collect();
+        (named.clone(), named)
     };
-    let timelines = pick::timelines(&data, &trajectories, &transcripts)?;
+    let timelines = pick::timelines(&data, &timeline_sources, &transcripts)?;
     let plots = plots::all(&plots::PlotInput {
         leaderboard: &leaderboard,
         tiers: &tier_rows,

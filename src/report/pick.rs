@@ -149,6 +149,33 @@ pub(crate) fn default_trajectories(lb: &Leaderboard, data: &Dataset, transcripts
     out
 }
 
+/// The episodes the default maneuver timelines are drawn for: per model
+/// and scenario, its trajectory episode, or, when none of its transcripts
+/// has a trajectory (runs made with `--no-trajectories`), the episode the
+/// same rule picks among them all (a timeline needs only the turns).
+pub(crate) fn default_timeline_sources(
+    lb: &Leaderboard,
+    data: &Dataset,
+    transcripts: &[Loaded],
+    trajectories: &[Loaded],
+) -> Vec<Loaded> {
+    let mut out = Vec::new();
+    for row in &lb.rows {
+        let Some(m) = data.models.iter().position(|d| d.label == row.model) else { continue };
+        for &s in &lb.scenarios {
+            let of = |l: &&Loaded| l.model == m && l.record.scenario == s;
+            let best =
+                trajectories.iter().find(of).or_else(|| {
+                    transcripts.iter().filter(of).filter(|l| lb.tiers.contains(&l.record.tier)).min_by_key(|l| {
+                        (outcome_rank(l.record.outcome), l.record.tier, l.record.seed, l.record.rollout)
+                    })
+                });
+            out.extend(best.cloned());
+        }
+    }
+    out
+}
+
 /// One maneuver timeline: a (scenario, tier, seed) and every model's
 /// episode of it, one row per model in the models' (leaderboard) order.
 #[derive(Debug, Clone)]
@@ -162,15 +189,11 @@ pub struct Timeline {
     pub rows: Vec<Option<Loaded>>,
 }
 
-/// The timelines of the trajectories' (scenario, tier, seed)s, in the
-/// trajectories' order, each once. Episodes not among `known` are read.
-pub(crate) fn timelines(
-    data: &Dataset,
-    trajectories: &[Loaded],
-    known: &[Loaded],
-) -> Result<Vec<Timeline>, ReportError> {
+/// The timelines of the `sources`' (scenario, tier, seed)s, in the
+/// sources' order, each once. Episodes not among `known` are read.
+pub(crate) fn timelines(data: &Dataset, sources: &[Loaded], known: &[Loaded]) -> Result<Vec<Timeline>, ReportError> {
     let mut keys: Vec<(ScenarioKind, Tier, u64, u32)> = Vec::new();
-    for l in trajectories {
+    for l in sources {
         let r = &l.record;
         if !keys.iter().any(|k| (k.0, k.1, k.2) == (r.scenario, r.tier, r.seed)) {
             keys.push((r.scenario, r.tier, r.seed, r.rollout));
@@ -190,7 +213,7 @@ pub(crate) fn timelines(
                 .collect()
         })
         .collect();
-    let have = |m: usize, i: usize| known.iter().chain(trajectories).find(|l| (l.model, l.episode) == (m, i));
+    let have = |m: usize, i: usize| known.iter().chain(sources).find(|l| (l.model, l.episode) == (m, i));
     let mut missing: Vec<(usize, usize)> = Vec::new();
     for row in &wanted {
         for (m, i) in row.iter().enumerate() {

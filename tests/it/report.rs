@@ -622,6 +622,35 @@ fn maneuver_timelines_have_one_row_per_model_in_leaderboard_order() {
     }
 }
 
+/// Runs made with `--no-trajectories` have no trajectory figure, but their
+/// maneuver timelines (which need only the turns) are drawn all the same.
+#[test]
+fn runs_without_trajectories_still_get_maneuver_timelines() {
+    let root = scratch("report-timeline-no-traj");
+    three_models(&root);
+    for dir in std::fs::read_dir(&root).unwrap() {
+        let path = dir.unwrap().path().join("rollouts.jsonl");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let stripped: String = text
+            .lines()
+            .map(|l| {
+                let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+                v.as_object_mut().unwrap().remove("trajectory");
+                format!("{v}\n")
+            })
+            .collect();
+        std::fs::write(&path, stripped).unwrap();
+    }
+    let built = report::build_from(load_dirs(std::slice::from_ref(&root)).unwrap(), refs(), &opts()).unwrap();
+    let names: Vec<&str> = built.report.plots.iter().map(|p| p.name.as_str()).collect();
+    assert!(!names.iter().any(|n| n.starts_with("trajectory_")), "{names:?}");
+    let timelines: Vec<&&str> = names.iter().filter(|n| n.starts_with("timeline_")).collect();
+    // The same picks as with trajectories: alpha's seed 0, beta's first collision (seed 1).
+    assert_eq!(timelines, [&"timeline_yield_standoff_t1_s0_r0", &"timeline_yield_standoff_t1_s1_r0"]);
+    let svg = &built.report.plots.iter().find(|p| p.name == "timeline_yield_standoff_t1_s1_r0").unwrap().svg;
+    assert!(svg.contains("<title>beta: collision after 2 turns"), "{svg}");
+}
+
 #[test]
 fn a_model_without_the_seed_keeps_its_timeline_row_empty() {
     let root = scratch("report-timeline-gap");
