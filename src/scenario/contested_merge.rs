@@ -101,7 +101,7 @@ const EASE_BACK_MPS2: f64 = 1.0;
 /// rate (1/s): it keeps the ego boxed in while the ego drives faster.
 const DENY_LEVEL_GAIN: f64 = 0.5;
 /// A follower closing the door on an ego keeps this time headway (s) ...
-const DOOR_HEADWAY_S: f64 = 0.15;
+const DOOR_HEADWAY_S: f64 = 0.1;
 /// ... tracking its gap and the lane car's speed with these gains (1/s^2,
 /// 1/s: critically damped).
 const DOOR_GAP_GAIN: f64 = 1.0;

@@ -331,9 +331,9 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | pedestrian_feint | 1 | 3 | 13.00 | 18 | 26794 | 86.7% | 329 |
     | pedestrian_feint | 2 | 3 | 15.67 | 18 | 37823 | 88.9% | 400 |
     | pedestrian_feint | 3 | 3 | 13.00 | 18 | 26793 | 86.8% | 329 |
-    | contested_merge | 1 | 3 | 17.33 | 25 | 53916 | 90.1% | 454 |
-    | contested_merge | 2 | 3 | 22.67 | 25 | 85059 | 91.9% | 614 |
-    | contested_merge | 3 | 3 | 19.67 | 25 | 66792 | 91.0% | 518 |
+    | contested_merge | 1 | 3 | 17.33 | 25 | 53913 | 90.1% | 455 |
+    | contested_merge | 2 | 3 | 22.33 | 25 | 82948 | 91.8% | 604 |
+    | contested_merge | 3 | 3 | 19.67 | 25 | 66795 | 91.0% | 518 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");
     let (turns, prompt, completion) = expected_line(&plan);
