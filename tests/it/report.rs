@@ -52,6 +52,19 @@ fn line(model: &str, hash: &str, s: ScenarioKind, tier: u8, seed: u64, rollout: 
     format!("{v}\n")
 }
 
+/// The DOM headless Chromium leaves after loading `url` and running its
+/// scripts.
+fn dump_dom(chromium: &Path, profile: &Path, url: &str) -> String {
+    let out = Command::new(chromium)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
+        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(url)
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 /// A run directory: run.json (config for `model`, selection) and lines.
 struct RunSpec<'a> {
     model: &'a str,
@@ -1005,14 +1018,7 @@ fn end_to_end_report_files_and_offline_html() {
         return;
     }
     let profile = root.join("chromium-profile");
-    let dom = Command::new(chromium)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
-        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(format!("file://{}", dir.join("report.html").display()))
-        .output()
-        .unwrap();
-    let dom = String::from_utf8_lossy(&dom.stdout);
+    let dom = dump_dom(chromium, &profile, &format!("file://{}", dir.join("report.html").display()));
     assert!(dom.contains("data-state=\"rendered\""), "the drill-down did not render: {}", &dom[..dom.len().min(400)]);
     assert!(dom.contains("class=\"turn-row\""), "no turn rows in the rendered drill-down");
     assert!(dom.contains("data-episode=\"0|"), "the first model's episode is shown");
@@ -1030,14 +1036,11 @@ fn end_to_end_report_files_and_offline_html() {
         .find(|e| e[13].as_i64() < Some(0))
         .expect("an episode without transcript");
     let key = (0..5).map(|i| bare[i].to_string()).collect::<Vec<_>>().join("|");
-    let dom = Command::new(chromium)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
-        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(format!("file://{}#episode={}", dir.join("report.html").display(), key.replace('|', "%7C")))
-        .output()
-        .unwrap();
-    let dom = String::from_utf8_lossy(&dom.stdout);
+    let dom = dump_dom(
+        chromium,
+        &profile,
+        &format!("file://{}#episode={}", dir.join("report.html").display(), key.replace('|', "%7C")),
+    );
     assert!(dom.contains(&format!("data-episode=\"{key}\"")), "episode {key} not selected");
     assert!(dom.contains("data-state=\"summary\""), "{key}: not the summary state");
     assert!(dom.contains("<span id=\"dd-count\">0</span>"), "a stale turn count is shown");
@@ -1054,14 +1057,11 @@ fn end_to_end_report_files_and_offline_html() {
         .find(|e| e[1] == 1 && e[13].as_i64() >= Some(0))
         .expect("a pedestrian episode with a transcript");
     let key = (0..5).map(|i| walker[i].to_string()).collect::<Vec<_>>().join("|");
-    let dom = Command::new(chromium)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
-        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(format!("file://{}#episode={}", dir.join("report.html").display(), key.replace('|', "%7C")))
-        .output()
-        .unwrap();
-    let dom = String::from_utf8_lossy(&dom.stdout);
+    let dom = dump_dom(
+        chromium,
+        &profile,
+        &format!("file://{}#episode={}", dir.join("report.html").display(), key.replace('|', "%7C")),
+    );
     assert!(dom.contains(&format!("data-episode=\"{key}\"")), "episode {key} not selected");
     let traj = &dom[dom.find("id=\"dd-traj\"").unwrap()..];
     let traj = &traj[..traj.find("<table class=\"turns\"").unwrap()];
@@ -1211,14 +1211,7 @@ document.body.setAttribute('data-done', 'yes');
     );
     let file = root.join("figures.html");
     std::fs::write(&file, page).unwrap();
-    let dom = Command::new(chromium)
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
-        .args(["--disable-component-update", "--disable-sync", "--no-first-run", "--dump-dom"])
-        .arg(format!("--user-data-dir={}", root.join("chromium-profile").display()))
-        .arg(format!("file://{}", file.display()))
-        .output()
-        .unwrap();
-    let dom = String::from_utf8_lossy(&dom.stdout);
+    let dom = dump_dom(chromium, &root.join("chromium-profile"), &format!("file://{}", file.display()));
     assert!(dom.contains("data-done=\"yes\""), "the figure page did not run: {}", &dom[..dom.len().min(300)]);
     for (style, name, _) in figures {
         let key = format!("data-name=\"{style}/{name}\" data-result=\"");
