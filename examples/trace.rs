@@ -1,7 +1,8 @@
 //! Development aid: one episode, turn by turn.
 //! `cargo run --release --example trace -- <scenario> <tier> <policy|schedule> <seed> [disposition]`,
 //! a schedule written `maneuver:strength:turns,...` (the last entry repeats);
-//! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file.
+//! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file; `LAG=n` plays
+//! the expert reading the other road users n decisions late.
 use negotiator::episode::*;
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::*;
@@ -32,7 +33,10 @@ fn main() {
         }
         None => Episode::new(set.get(kind), tier, seed),
     };
-    let mut p = policy.build();
+    let mut p: Box<dyn negotiator::policy::Policy> = match std::env::var("LAG") {
+        Ok(l) => Box::new(negotiator::policy::ExpertLate::new(l.parse().unwrap())),
+        Err(_) => policy.build(),
+    };
     p.reset(policy_seed(ep.spec()));
     println!("disposition {}", ep.disposition());
     while !ep.is_done() {

@@ -223,6 +223,7 @@ impl Episode {
             ego: view,
             scene: world.observe(&ego),
             last_action: None,
+            reading_noise: world.reading_noise(),
         };
         // The twin's first observation is taken too, so that its history
         // advances in step with the real world's.
@@ -318,6 +319,7 @@ impl Episode {
             },
             scene,
             last_action: self.held,
+            reading_noise: self.world.reading_noise(),
         };
         if let Some(twin) = self.twin.as_mut() {
             let twin_scene = twin.observe(&self.ego);

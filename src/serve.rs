@@ -167,17 +167,31 @@ pub(crate) enum SceneRead {
 }
 
 pub(crate) fn answer(policy: PolicyKind, seed: u64, scene_text: &str) -> Answer {
-    answer_with_belief(policy, seed, scene_text, None).0
+    answer_with_belief(policy, seed, &[], scene_text, None).0
 }
 
 /// The answer and, when probing, the stated belief (`ideal`: the ideal
 /// observer's belief for this conversation, None when its episode is not
-/// known; the expert then states 0.5).
-fn answer_with_belief(policy: PolicyKind, seed: u64, scene_text: &str, ideal: Option<f64>) -> (Answer, f64) {
+/// known; the expert then states 0.5). `earlier` are the conversation's
+/// earlier scenes: a policy with memory (the late expert) is shown them
+/// first, in order, so it answers as it would have in one episode.
+fn answer_with_belief(
+    policy: PolicyKind,
+    seed: u64,
+    earlier: &[&str],
+    scene_text: &str,
+    ideal: Option<f64>,
+) -> (Answer, f64) {
     match parse_scene(scene_text) {
         Ok(obs) => {
             let mut p = policy.build();
             p.reset(splitmix64(seed ^ fnv1a64(scene_text)));
+            let memory = if p.remembers() { earlier } else { &[] };
+            for earlier in memory.iter().filter_map(|text| parse_scene(text).ok()) {
+                if earlier.scenario() == obs.scenario() && earlier.turn < obs.turn {
+                    p.act(&earlier);
+                }
+            }
             let action = p.act(&obs);
             let belief = p.belief(&obs, &action, ideal.unwrap_or(0.5));
             let answer = Answer {
@@ -281,8 +295,9 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     };
     let scenes = text("user");
     let scene = scenes.last().map_or("", String::as_str);
+    let earlier: Vec<&str> = scenes[..scenes.len().saturating_sub(1)].iter().map(String::as_str).collect();
     let Some(index) = &cfg.belief else {
-        let answer = answer(cfg.policy, cfg.seed, scene);
+        let (answer, _) = answer_with_belief(cfg.policy, cfg.seed, &earlier, scene, None);
         return (action_content(&answer.action, &answer.reasoning), answer.scene);
     };
     let replies = text("assistant");
@@ -293,7 +308,7 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     if ideal.is_none() {
         state.stats.unidentified_episodes.fetch_add(1, Ordering::Relaxed);
     }
-    let (answer, belief) = answer_with_belief(cfg.policy, cfg.seed, scene, ideal);
+    let (answer, belief) = answer_with_belief(cfg.policy, cfg.seed, &earlier, scene, ideal);
     let mut content = action_json(&answer.action, &answer.reasoning);
     content["belief"] = json!(belief);
     (content.to_string(), answer.scene)

@@ -69,6 +69,11 @@ pub struct Action {
 /// Speed the ego creeps at under `nudge_forward` (m/s).
 pub const CREEP_SPEED: f64 = 2.0;
 
+/// `proceed`'s rate at full strength (m/s^2); at strength 0 it holds the
+/// current speed, so a driver can always keep its pace without alternating
+/// maneuvers.
+pub const PROCEED_MAX_ACCEL: f64 = 3.0;
+
 impl Action {
     /// What an unreadable reply turns into: brake firmly to a stop.
     pub const CONSERVATIVE: Action = Action { maneuver: Maneuver::Stop, acceleration: -0.5, steering: 0.0 };
@@ -77,13 +82,25 @@ impl Action {
         Action { maneuver, acceleration, steering: 0.0 }
     }
 
+    /// `proceed` at the strength that accelerates at `mps2` (0 holds the
+    /// current speed; 3 m/s^2 is full strength).
+    pub fn proceed_at(mps2: f64) -> Action {
+        Action::new(Maneuver::Proceed, (mps2 / PROCEED_MAX_ACCEL).clamp(0.0, 1.0))
+    }
+
+    /// `proceed` at strength 0: keep the current speed (brake only above the
+    /// speed limit).
+    pub fn hold() -> Action {
+        Action::new(Maneuver::Proceed, 0.0)
+    }
+
     /// The controller this action selects. The maneuver picks the mode and
     /// its target speed; `|acceleration|` picks the strength inside the
     /// mode's band:
     ///
     /// | maneuver | target speed | rate (m/s^2) at \|a\| = 0 .. 1 |
     /// |---|---|---|
-    /// | proceed | speed limit | accelerate 1.0 .. 3.0 |
+    /// | proceed | speed limit | accelerate 0.0 .. 3.0 (0: hold the current speed) |
     /// | nudge_forward | 2.0 m/s creep | accelerate 0.5 .. 1.5, brake 2.0 .. 4.0 if faster |
     /// | yield | 0 | brake 0.5 .. 4.0 |
     /// | stop | 0 | brake 4.0 .. 8.0 |
@@ -91,7 +108,9 @@ impl Action {
         let m = self.acceleration.abs().clamp(0.0, 1.0);
         let band = |lo: f64, hi: f64| lo + (hi - lo) * m;
         match self.maneuver {
-            Maneuver::Proceed => Control { target: Target::SpeedLimit, accel: band(1.0, 3.0), brake: 3.0 },
+            Maneuver::Proceed => {
+                Control { target: Target::SpeedLimit, accel: band(0.0, PROCEED_MAX_ACCEL), brake: 3.0 }
+            }
             Maneuver::NudgeForward => Control { target: Target::Creep, accel: band(0.5, 1.5), brake: band(2.0, 4.0) },
             Maneuver::Yield => Control { target: Target::Halt, accel: 0.0, brake: band(0.5, 4.0) },
             Maneuver::Stop => Control { target: Target::Halt, accel: 0.0, brake: band(4.0, 8.0) },
@@ -146,6 +165,16 @@ mod tests {
         assert_eq!(hard, -8.0);
         let go = Action::new(Maneuver::Proceed, 1.0).control().acceleration(5.0, 12.0, 0.1);
         assert_eq!(go, 3.0);
+    }
+
+    #[test]
+    fn proceed_at_strength_zero_holds_the_current_speed() {
+        assert_eq!(Action::hold().control().acceleration(7.3, 12.0, 0.1), 0.0);
+        assert_eq!(Action::hold().control().acceleration(0.0, 12.0, 0.1), 0.0);
+        // Above the limit it still brakes back to it.
+        assert!(Action::hold().control().acceleration(13.0, 12.0, 0.1) < 0.0);
+        let gentle = Action::proceed_at(1.0).control().acceleration(5.0, 12.0, 0.1);
+        assert!((gentle - 1.0).abs() < 1e-12, "{gentle}");
     }
 
     #[test]

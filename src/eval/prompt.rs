@@ -25,7 +25,7 @@ Every turn, answer with exactly one JSON object and nothing else:
 
 The maneuver selects how your car is controlled; the magnitude |acceleration| (0 to 1) sets \
 how strongly, inside that maneuver's band:
-- proceed: speed up toward the speed limit, accelerating at 1.0 m/s^2 (|acceleration| = 0) up to 3.0 m/s^2 (|acceleration| = 1).
+- proceed: go on toward the speed limit, accelerating at |acceleration| x 3.0 m/s^2: 0 holds your current speed, 1 accelerates at 3.0 m/s^2.
 - nudge_forward: creep toward 2.0 m/s, accelerating at 0.5 to 1.5 m/s^2, or braking at 2.0 to 4.0 m/s^2 if faster.
 - yield: slow down toward a stop, braking at 0.5 to 4.0 m/s^2.
 - stop: brake to a stop, at 4.0 to 8.0 m/s^2.

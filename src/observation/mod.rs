@@ -52,6 +52,16 @@ pub struct EgoView {
     pub speed_limit_mps: f64,
 }
 
+/// The size of the random noise on the other road users' readings, where a
+/// tier adds it (one standard deviation, drawn afresh each turn). Public: it
+/// is a property of the tier, the same under both dispositions, and a
+/// driver told nothing would misread a jumping position as motion.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ReadingNoise {
+    pub position_sd_m: f64,
+    pub speed_sd_mps: f64,
+}
+
 /// What a policy sees at one decision.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Observation {
@@ -63,6 +73,9 @@ pub struct Observation {
     pub scene: Scene,
     /// The action held over the last half second (None on the first turn).
     pub last_action: Option<Action>,
+    /// The noise on the other road users' readings, on a tier that adds it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reading_noise: Option<ReadingNoise>,
 }
 
 impl Observation {
@@ -107,6 +120,9 @@ impl Observation {
                 acceleration: round_to(a.acceleration.clamp(-1.0, 1.0), 2),
                 steering: 0.0,
             }),
+            reading_noise: self
+                .reading_noise
+                .map(|n| ReadingNoise { position_sd_m: r1(n.position_sd_m), speed_sd_mps: r1(n.speed_sd_mps) }),
         }
     }
 }

@@ -2,7 +2,7 @@
 //! whose scripted model sees nothing but the text, and by the round-trip
 //! invariant.
 
-use super::{EgoView, HISTORY_LEN, Observation, Sample, Scene, Track};
+use super::{EgoView, HISTORY_LEN, Observation, ReadingNoise, Sample, Scene, Track};
 use crate::action::{Action, Maneuver};
 use crate::scenario::ScenarioKind;
 
@@ -85,6 +85,13 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         }
         Some(Action { maneuver, acceleration: acc[0], steering: 0.0 })
     };
+    let reading_noise = match line(text, "Readings") {
+        Ok(l) => match numbers(l)[..] {
+            [position_sd_m, speed_sd_mps] => Some(ReadingNoise { position_sd_m, speed_sd_mps }),
+            _ => return Err(SceneParseError::BadNumbers { line: "Readings", expected: 2 }),
+        },
+        Err(_) => None,
+    };
     Ok(Observation {
         time_s,
         turn: turn[0] as u32,
@@ -92,6 +99,7 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         ego: EgoView { speed_mps, accel_mps2, to_goal_m, speed_limit_mps },
         scene,
         last_action,
+        reading_noise,
     })
 }
 

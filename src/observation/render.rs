@@ -30,6 +30,14 @@ pub fn render_scene(obs: &Observation) -> String {
     // "pedestrian_feint" would tell the model which behaviour to expect.
     let _ = writeln!(out, "Scene: {}", obs.scenario().scene_name());
     let _ = writeln!(out, "Situation: {}", kind.situation());
+    if let Some(n) = obs.reading_noise {
+        let _ = writeln!(
+            out,
+            "Readings: the other road users' positions and speeds carry random noise of {} m and {} m/s (one standard deviation, drawn afresh each turn); your own are exact.",
+            f1(n.position_sd_m),
+            f1(n.speed_sd_mps)
+        );
+    }
     let _ = writeln!(out, "Time: {} s", f1(obs.time_s));
     let _ = writeln!(
         out,

@@ -5,16 +5,47 @@
 //! actually stopped, a pedestrian who waits or crosses, a lane car that makes
 //! room), keeps the pace of a car that means to go while a hard stop stays
 //! possible, and lets the other go first otherwise. The cue follower acts on
-//! the instantaneous cue instead: the other is braking, so go. The rules of
+//! the instantaneous cue instead: the other is braking, so go. The late
+//! expert is the expert reading the scene one decision late. The rules of
 //! each scenario live with the scenario (`scenario/`, reached through
 //! [`crate::scenario::Scene`]).
 
 use super::Policy;
 use crate::action::Action;
-use crate::observation::Observation;
+use crate::observation::{Observation, Scene};
 
 pub struct Expert;
 pub struct CueFollower;
+
+/// The expert reading the other road users `lag` decisions late: its own
+/// rules, acting on the scene of `lag` decisions ago with its own state
+/// (speed, distance, last action) current. Nothing else differs, so its
+/// score against the expert's is what that much reaction time costs. Before
+/// it has seen `lag` earlier scenes it reads the oldest it has (the first
+/// scene is the same under both dispositions).
+pub struct ExpertLate {
+    lag: usize,
+    /// The scenes seen so far this episode, oldest first.
+    seen: Vec<Scene>,
+}
+
+impl ExpertLate {
+    pub fn new(lag: usize) -> ExpertLate {
+        ExpertLate { lag, seen: Vec::with_capacity(48) }
+    }
+
+    /// The observation it acts on: `obs` with the road users as they were
+    /// `lag` decisions ago.
+    fn late_view(&mut self, obs: &Observation) -> Observation {
+        // A new episode (a policy reused without `reset`) starts afresh.
+        if obs.turn <= 1 {
+            self.seen.clear();
+        }
+        self.seen.push(obs.scene);
+        let older = self.seen[self.seen.len().saturating_sub(1 + self.lag)];
+        Observation { scene: obs.scene.with_road_users_of(&older), ..*obs }
+    }
+}
 
 impl Policy for Expert {
     fn act(&mut self, obs: &Observation) -> Action {
@@ -27,8 +58,79 @@ impl Policy for Expert {
     }
 }
 
+impl Policy for ExpertLate {
+    fn reset(&mut self, _policy_seed: u64) {
+        self.seen.clear();
+    }
+
+    fn remembers(&self) -> bool {
+        true
+    }
+
+    fn act(&mut self, obs: &Observation) -> Action {
+        let view = self.late_view(obs);
+        Expert.act(&view)
+    }
+}
+
 impl Policy for CueFollower {
     fn act(&mut self, obs: &Observation) -> Action {
         obs.scene.cue_follower(obs.ego.speed_mps, obs.ego.speed_limit_mps)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::episode::run_episode;
+    use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+
+    #[test]
+    fn reading_zero_decisions_late_is_the_expert() {
+        let set = ScenarioSet::default();
+        for kind in ScenarioKind::ALL {
+            for tier in Tier::ALL {
+                for seed in 0..20 {
+                    let late = run_episode(set.get(kind), tier, seed, &mut ExpertLate::new(0));
+                    let expert = run_episode(set.get(kind), tier, seed, &mut Expert);
+                    assert_eq!(late.decisions, expert.decisions, "{kind}/t{tier} seed {seed}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_late_expert_reused_across_episodes_plays_each_afresh() {
+        let set = ScenarioSet::default();
+        let config = set.get(ScenarioKind::YieldStandoff);
+        let mut reused = ExpertLate::new(1);
+        for seed in 0..10 {
+            let again = run_episode(config, Tier::T2, seed, &mut reused);
+            let fresh = run_episode(config, Tier::T2, seed, &mut ExpertLate::new(1));
+            assert_eq!(again.decisions, fresh.decisions, "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn the_late_view_keeps_the_ego_current_and_the_road_users_old() {
+        let set = ScenarioSet::default();
+        for kind in ScenarioKind::ALL {
+            let mut episode = crate::episode::Episode::new(set.get(kind), Tier::T1, 3);
+            let mut late = ExpertLate::new(1);
+            let mut previous: Option<Observation> = None;
+            while !episode.is_done() {
+                let obs = *episode.observation();
+                let view = late.late_view(&obs);
+                assert_eq!(view.ego, obs.ego);
+                assert_eq!(view.ego_to_conflict_m(), obs.ego_to_conflict_m());
+                let older = previous.unwrap_or(obs);
+                // Speeds are as the older scene showed them.
+                for (seen, then) in view.scene.tracks().iter().zip(older.scene.tracks()) {
+                    assert_eq!(seen.now.velocity_mps, then.now.velocity_mps, "{kind}");
+                }
+                previous = Some(obs);
+                episode.step(Expert.act(&obs));
+            }
+        }
     }
 }

@@ -4,7 +4,7 @@
 mod expert;
 mod simple;
 
-pub use expert::{CueFollower, Expert};
+pub use expert::{CueFollower, Expert, ExpertLate};
 pub use simple::{AlwaysProceed, AlwaysStop, Cautious, RandomPolicy};
 
 use crate::action::{Action, Maneuver};
@@ -17,6 +17,12 @@ pub trait Policy: Send {
     /// randomness (derived from, but not revealing, the episode key).
     fn reset(&mut self, _policy_seed: u64) {}
     fn act(&mut self, obs: &Observation) -> Action;
+    /// Whether the policy's action depends on earlier observations of the
+    /// episode (a front end that sees one turn at a time, like `serve`,
+    /// then shows it the episode's earlier scenes first).
+    fn remembers(&self) -> bool {
+        false
+    }
     /// The belief the policy states for the probe: the probability that
     /// the other road user lets the ego pass first, after choosing
     /// `action` for `obs`. By default a policy believes what it does (1
@@ -39,16 +45,18 @@ pub enum PolicyKind {
     Cautious,
     Random,
     CueFollower,
+    ExpertLate,
 }
 
 impl PolicyKind {
-    pub const ALL: [PolicyKind; 6] = [
+    pub const ALL: [PolicyKind; 7] = [
         PolicyKind::Expert,
         PolicyKind::AlwaysProceed,
         PolicyKind::AlwaysStop,
         PolicyKind::Cautious,
         PolicyKind::Random,
         PolicyKind::CueFollower,
+        PolicyKind::ExpertLate,
     ];
     /// Policies that ignore the state entirely (the anti-gaming invariant).
     pub const STATE_IGNORANT: [PolicyKind; 4] =
@@ -64,6 +72,7 @@ impl PolicyKind {
             PolicyKind::Cautious => "cautious",
             PolicyKind::Random => "random",
             PolicyKind::CueFollower => "cue_follower",
+            PolicyKind::ExpertLate => "expert_late",
         }
     }
 
@@ -75,6 +84,7 @@ impl PolicyKind {
             PolicyKind::Cautious => Box::new(Cautious),
             PolicyKind::Random => Box::new(RandomPolicy::default()),
             PolicyKind::CueFollower => Box::new(CueFollower),
+            PolicyKind::ExpertLate => Box::new(ExpertLate::new(1)),
         }
     }
 }
@@ -86,7 +96,9 @@ impl fmt::Display for PolicyKind {
 }
 
 #[derive(Debug, thiserror::Error)]
-#[error("unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random or cue_follower)")]
+#[error(
+    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower or expert_late)"
+)]
 pub struct UnknownPolicy(String);
 
 impl FromStr for PolicyKind {

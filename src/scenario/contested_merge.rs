@@ -691,6 +691,14 @@ impl World for MergeWorld {
         true
     }
 
+    fn reading_noise(&self) -> Option<crate::observation::ReadingNoise> {
+        let sd = &self.params.tier2;
+        self.noise.is_some().then_some(crate::observation::ReadingNoise {
+            position_sd_m: sd.position_noise_m,
+            speed_sd_mps: sd.speed_noise_mps,
+        })
+    }
+
     fn cuts_off(&self, ego: &Body) -> bool {
         if !self.ego_in_lane(ego) {
             return false;
@@ -771,11 +779,11 @@ fn speed_trend(t: &Track) -> f64 {
 fn toward(v: f64, target: f64) -> Action {
     use crate::action::Maneuver;
     if v < target - 0.2 {
-        Action::new(Maneuver::Proceed, ((target - v) / 1.5 - 0.5).clamp(0.0, 1.0))
+        Action::proceed_at(1.0 + 2.0 * ((target - v) / 1.5 - 0.5).clamp(0.0, 1.0))
     } else if v > target + 0.2 {
         Action::new(Maneuver::Yield, ((v - target) / 2.0 - 0.1).clamp(0.0, 1.0))
     } else {
-        Action::new(Maneuver::Proceed, 0.0)
+        Action::proceed_at(1.0)
     }
 }
 

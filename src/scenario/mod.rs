@@ -604,7 +604,7 @@ mod tests {
 
     #[test]
     fn out_of_range_field_is_named() {
-        let text = BUILTIN[0].1.replace("turn_budget = 22", "turn_budget = 400");
+        let text = BUILTIN[0].1.replace("turn_budget = 24", "turn_budget = 400");
         assert_ne!(text, BUILTIN[0].1, "the planted value did not apply");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: turn_budget: must be 1..=40"), "{e}");

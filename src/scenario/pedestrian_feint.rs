@@ -45,6 +45,16 @@
 //!   the turn budget allows; the expert, who reads the cue and times its
 //!   arrival behind a crosser, finishes within it with slack.
 //!
+//! How long a feinter waits, and why: it stands at the kerb for at least
+//! `look_s` (1.0-1.5 s, a human perception-reaction time) after it has
+//! stopped there before it steps in, however the car moves, so a driver who
+//! sees it stop has two decisions or more to go. The turn budget (20)
+//! leaves a driver who gives way to a crosser one decision late time to
+//! finish; a feinter who gave up crosses hesitantly (0.7-0.9 m/s), so that
+//! outwaiting it still does not fit. The tier-3 dart (triggered 1.35-1.45 s
+//! before the car would arrive) does not yet leave a late reader room: see
+//! `validate`'s late-reader line.
+//!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
 //! lateral from the near kerb: `lat = y + 1.75`.
@@ -471,7 +481,7 @@ fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
                 Action::new(Maneuver::Yield, ((need - 0.5) / 3.5).clamp(0.0, 1.0))
             }
         } else if v < v_t - 0.3 {
-            Action::new(Maneuver::Proceed, 0.0)
+            Action::proceed_at(1.0)
         } else {
             Action::new(Maneuver::Yield, 0.0)
         };
@@ -505,7 +515,7 @@ pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
         return hedge(v, d - WAIT_GAP_M);
     }
     // Keep a going pace.
-    if v < PACE_MPS { Action::new(Maneuver::Proceed, 0.0) } else { Action::new(Maneuver::Yield, 0.0) }
+    if v < PACE_MPS { Action::proceed_at(1.0) } else { Action::new(Maneuver::Yield, 0.0) }
 }
 
 /// The cue follower: go as soon as the pedestrian is not moving into the road.

@@ -47,9 +47,9 @@ const CAR_BEHIND: TrackLabel =
 const PEDESTRIAN: TrackLabel = TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)" };
 const LANE_CAR: TrackLabel = TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)" };
 
-const YIELD_SITUATION: &str = "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (a car has fully crossed below -6.7 m).";
-const PEDESTRIAN_SITUATION: &str = "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian's position is lateral, from the near kerb: negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line.";
-const MERGE_SITUATION: &str = "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you). Your body starts to overlap the lane at the merge point.";
+const YIELD_SITUATION: &str = "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Cars (yours too) are 4.8 m long, 1.9 m wide. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (any car has fully crossed below -6.7 m).";
+const PEDESTRIAN_SITUATION: &str = "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.";
+const MERGE_SITUATION: &str = "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point.";
 
 impl ScenarioKind {
     /// The scene text's "Situation:" paragraph.
@@ -168,6 +168,29 @@ impl Scene {
         Scene::from_parts(self.kind(), &place, &tracks).expect("a scene's own parts rebuild it")
     }
 
+    /// What a reader whose view of the other road users lags sees: this
+    /// scene's own place (the ego's state is current) with the road users
+    /// as `older` showed them. Where a road user's position is relative to
+    /// the ego (the merge), it is moved by the ego's own travel since, so
+    /// the older reading stays where that road user then was.
+    pub(crate) fn with_road_users_of(&self, older: &Scene) -> Scene {
+        if older.kind() != self.kind() {
+            return *self;
+        }
+        let tracks = match (*self, *older) {
+            (Scene::ContestedMerge { ego_to_merge_m: now, .. }, Scene::ContestedMerge { ego_to_merge_m: then, .. }) => {
+                let travelled = then - now;
+                let shift = |s: crate::observation::Sample| crate::observation::Sample {
+                    position_m: s.position_m - travelled,
+                    velocity_mps: s.velocity_mps,
+                };
+                older.tracks().into_iter().map(|t| Track { now: shift(t.now), past: t.past.map(shift) }).collect()
+            }
+            _ => older.tracks(),
+        };
+        Scene::from_parts(self.kind(), &self.place(), &tracks).expect("a scene's own parts rebuild it")
+    }
+
     /// The expert's action (see `policy::expert`): each scenario's rule.
     pub(crate) fn expert(&self, v: f64, v_max: f64, last: Option<Action>) -> Action {
         match self {
@@ -196,5 +219,50 @@ impl Scene {
                 contested_merge::cue_follower(v, v_max, *ego_to_merge_m, lane_car, follower)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observation::Sample;
+
+    fn track(position_m: f64, velocity_mps: f64) -> Track {
+        let s = Sample { position_m, velocity_mps };
+        Track { now: s, past: [s; crate::observation::HISTORY_LEN] }
+    }
+
+    #[test]
+    fn an_older_merge_reading_stays_where_the_car_then_was() {
+        // Half a second ago the lane car was 2 m ahead of the ego; the ego
+        // has since driven 6 m: that car, as then seen, is now 4 m behind.
+        let then = Scene::ContestedMerge {
+            ego_to_merge_m: 30.0,
+            ramp_left_m: 60.0,
+            lane_car: track(2.0, 11.0),
+            follower: track(-12.0, 11.0),
+        };
+        let now = Scene::ContestedMerge {
+            ego_to_merge_m: 24.0,
+            ramp_left_m: 54.0,
+            lane_car: track(1.0, 12.0),
+            follower: track(-13.0, 12.0),
+        };
+        let late = now.with_road_users_of(&then);
+        assert_eq!(late.place(), now.place());
+        let tracks = late.tracks();
+        assert!((tracks[0].now.position_m - -4.0).abs() < 1e-12);
+        assert!((tracks[1].now.position_m - -18.0).abs() < 1e-12);
+        assert_eq!(tracks[0].now.velocity_mps, 11.0);
+    }
+
+    #[test]
+    fn an_older_crossing_reading_is_taken_as_it_was() {
+        let then =
+            Scene::YieldStandoff { ego_to_conflict_m: 30.0, other: track(12.0, 5.0), follower: track(20.0, 5.0) };
+        let now = Scene::YieldStandoff { ego_to_conflict_m: 25.0, other: track(9.5, 4.0), follower: track(17.5, 5.0) };
+        let late = now.with_road_users_of(&then);
+        assert_eq!(late.ego_to_conflict_m(), 25.0);
+        assert_eq!(late.tracks(), then.tracks());
     }
 }

@@ -64,6 +64,11 @@ pub trait World {
     fn noisy_readings(&self) -> &[crate::belief::NoisyReading] {
         &[]
     }
+    /// The size of the noise this world's readings carry, as the scene
+    /// text states it (public: a property of the tier).
+    fn reading_noise(&self) -> Option<crate::observation::ReadingNoise> {
+        None
+    }
 }
 
 /// Time margin for a right-of-way violation.

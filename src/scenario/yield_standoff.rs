@@ -12,11 +12,13 @@
 //! - racing: a committed car reaches the zone when a full-throttle ego
 //!   does, under every geometry drawn, and the car behind it follows too
 //!   closely for the ego to slip between them;
-//! - arriving after the committed pair: the ego has to hang back for that,
-//!   and a yielder that sees the ego hang back once it has stopped takes its
-//!   turn at once (patience drawn per seed, short). It pulls away from rest
-//!   before the committed pair would have cleared, so the late ego meets it
-//!   in the zone;
+//! - arriving after the committed pair: the ego has to hang back for that.
+//!   Crossing cars approach carefully (4-5 m/s), so a committed pair takes
+//!   about three seconds to clear the zone after the first car reaches it,
+//!   while a yielder is at rest at its line within half a second of that
+//!   moment; once the ego has hung back for the yielder's patience it pulls
+//!   away, before the committed pair would have cleared, and the late ego
+//!   meets it in the zone;
 //! - waiting for both: a yielder that took its turn pulls away from rest
 //!   with its follower queued behind it, so the pair clears the zone seconds
 //!   after a committed pair does; the turn budget ends in between (the
@@ -27,6 +29,17 @@
 //!   will enter within the commit horizon); hanging back makes it roll
 //!   through at its floor speed and then drive on; a yielder stops and
 //!   waits as on tier 1, with more patience (its stop is the first sign).
+//!
+//! How long a stopped yielder waits, and why: it takes its turn only once
+//! the ego has hung back for 1.0-1.5 s in all after it came to rest (drawn
+//! per seed; tier 3 the same). A human driver's perception-reaction time is
+//! about 1-1.5 s: a driver who sees the stop at the next decision and
+//! answers a decision later is coming (not braking and due within
+//! `coming_eta_s`, or speeding up and due within `speeding_up_eta_s`)
+//! before the patience runs out, so "wait for the car to stop, then go"
+//! works one decision late (`tests/it/core.rs`). A patience under one
+//! decision (the 0.2-0.5 s this scenario once had) is not a person, and
+//! the late-reader line of `validate` catches it.
 //!
 //! Frame: the ego drives along +y at x = 0, the crossing cars along +x at
 //! y = 0; positions are box centres, the crossing centre is the origin.
@@ -87,6 +100,10 @@ pub struct YieldOther {
     /// least 1.5 m/s and is due at the zone within this long (s), or can no
     /// longer stop short of it ...
     pub coming_eta_s: f64,
+    /// ... or is speeding up toward the zone (at least 0.5 m/s^2, at least
+    /// 1.5 m/s) and due within this long (s): what a driver waiting at its
+    /// line sees as a car coming through.
+    pub speeding_up_eta_s: f64,
     /// ... and, once stopped, takes its turn after the ego has hung back for
     /// this long in all (s), drawn per episode.
     pub patience_s: Range,
@@ -106,6 +123,10 @@ pub struct YieldTier2 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct YieldTier3 {
+    /// Both crossing cars approach at this speed on tier 3 (m/s): a
+    /// bluff needs a car fast enough that rolling on at its floor, then
+    /// re-accelerating, still reaches the zone first.
+    pub approach_speed_mps: Range,
     /// Both dispositions were already braking when the ego arrived, on a
     /// profile that would stop at the line this many times later than a
     /// full-throttle ego's arrival.
@@ -141,11 +162,13 @@ impl YieldParams {
         c.within("other.stop_line_m", o.stop_line_m, 0.5, 10.0)?;
         c.within("other.stop_decel_mps2", o.stop_decel_mps2, 0.5, 8.0)?;
         c.within("other.coming_eta_s", o.coming_eta_s, 0.1, 10.0)?;
+        c.within("other.speeding_up_eta_s", o.speeding_up_eta_s, 0.0, 10.0)?;
         c.range_within("other.patience_s", o.patience_s, 0.0, 30.0)?;
         c.within("other.go_accel_mps2", o.go_accel_mps2, 0.5, 5.0)?;
         c.within("other.go_speed_mps", o.go_speed_mps, 1.0, 20.0)?;
         c.within("tier2.stop_decel_mps2", self.tier2.stop_decel_mps2, 0.5, 8.0)?;
         let t3 = &self.tier3;
+        c.range_within("tier3.approach_speed_mps", t3.approach_speed_mps, 1.0, 20.0)?;
         c.range_within("tier3.stop_time_factor", t3.stop_time_factor, 0.5, 4.0)?;
         c.within("tier3.floor_speed_mps", t3.floor_speed_mps, 0.5, 10.0)?;
         c.within("tier3.commit_horizon_s", t3.commit_horizon_s, 0.1, 5.0)?;
@@ -230,6 +253,10 @@ impl YieldWorld {
         let d_ego = params.ego.start_distance_m.sample(geometry);
         let v_ego = params.ego.start_speed_mps.sample(geometry);
         let approach = params.other.approach_speed_mps.sample(geometry);
+        // Drawn on every tier, so that tier 3's speed does not shift the
+        // draws after it.
+        let approach_t3 = params.tier3.approach_speed_mps.sample(geometry);
+        let approach = if tier == Tier::T3 { approach_t3 } else { approach };
         let offset = params.other.arrival_offset_s.sample(geometry);
         let lag = params.other.follower_lag_s.sample(geometry);
         let patience = match tier {
@@ -293,17 +320,19 @@ impl YieldWorld {
     }
 
     /// Whether the ego's motion says it is coming through first: it can no
-    /// longer stop short of the zone, or it is not braking, drives at least
-    /// 1.5 m/s and is due within `coming_eta_s`.
+    /// longer stop short of the zone, or it drives at least 1.5 m/s and is
+    /// either not braking and due within `coming_eta_s`, or speeding up and
+    /// due within `speeding_up_eta_s`.
     fn ego_coming(&self, ego: &Body) -> bool {
         let a = self.approach(ego);
         if a.to_conflict <= 0.0 {
             return true;
         }
+        let eta = a.eta(self.params.episode.speed_limit_mps);
+        let o = &self.params.other;
         a.beyond_stopping()
-            || (ego.a > -0.5
-                && ego.v >= 1.5
-                && a.eta(self.params.episode.speed_limit_mps) <= self.params.other.coming_eta_s)
+            || (ego.a > -0.5 && ego.v >= 1.5 && eta <= o.coming_eta_s)
+            || (ego.a >= 0.5 && ego.v >= 1.5 && eta <= o.speeding_up_eta_s)
     }
 
     /// A yielder: drive on until a stop at the line takes its braking rate,

@@ -65,16 +65,16 @@ fn golden_vectors_pin_trajectories() {
         Action::new(Maneuver::Yield, 0.3),
         Action::new(Maneuver::NudgeForward, 0.5),
     ];
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.5829, 0.0000) v 1.9500 reward 0.991777 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 22 t 11.0 ego (0.0000, -18.8029) v 0.0000 other (16.2129, 0.0000) v 4.0000 reward -0.181158 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.1656, 0.0000) v 2.2500 reward 0.991777 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (19.0149, 0.0000) v 4.0000 reward -0.179608 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 2.7515) v 2.5000 reward -0.152324 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 20 t 10.0 ego (-19.7207, 0.0000) v 0.0000 other (0.0000, 5.2515) v 2.5000 reward -0.151392 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (35.4264, 0.0000) v 6.5000 reward -0.279279 dc 0.000");
     let ease =
         [Action::new(Maneuver::Yield, 0.3), Action::new(Maneuver::Proceed, 0.5), Action::new(Maneuver::Proceed, 0.5)];
-    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 4, &ease), @"committed collision turns 7 t 3.3 ego (14.7475, -1.7795) v 12.2868 other (15.8914, 0.0000) v 12.2335 reward -1.000000 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T3, 6, &ease), @"committed collision turns 8 t 4.0 ego (14.2007, -1.8433) v 11.7997 other (15.2247, 0.0000) v 11.2528 reward -1.000000 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 4, &ease), @"committed collision turns 7 t 3.4 ego (14.3184, -1.8295) v 11.1318 other (15.9869, 0.0000) v 11.3202 reward -1.000000 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T3, 6, &ease), @"committed collision turns 9 t 4.2 ego (14.0281, -1.8634) v 10.8497 other (16.0805, 0.0000) v 10.5440 reward -1.000000 dc 0.000");
 }
 
 #[test]
@@ -174,7 +174,7 @@ fn tiers_bite_check_catches_a_toothless_bluff() {
 #[test]
 fn solvable_check_catches_an_impossible_budget() {
     let mut set = ScenarioSet::default();
-    let text = include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = 18", "turn_budget = 4");
+    let text = include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = 20", "turn_budget = 4");
     set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
     assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
 }
@@ -354,6 +354,10 @@ fn blind_merge_plays_win_under_one_disposition_at_most() {
     let config = set.get(ScenarioKind::ContestedMerge);
     /// Runs of (maneuver, strength, turns); the last run repeats.
     type Runs = &'static [(Maneuver, f64, usize)];
+    // These plays were found when `proceed` accelerated at 1 + 2 x strength
+    // m/s^2 (strength 0 now holds the speed): they are replayed at the same
+    // rates.
+    let old_rate = |m: Maneuver, a: f64| if m == P { Action::proceed_at(1.0 + 2.0 * a) } else { Action::new(m, a) };
     let plays: [(&str, Runs); 5] = [
         ("slip in behind", &[(S, 0.5, 1), (P, 0.5, 1)]),
         (
@@ -428,8 +432,7 @@ fn blind_merge_plays_win_under_one_disposition_at_most() {
     ];
     let n = 120;
     for (name, runs) in plays {
-        let schedule: Vec<Action> =
-            runs.iter().flat_map(|&(m, a, k)| std::iter::repeat_n(Action::new(m, a), k)).collect();
+        let schedule: Vec<Action> = runs.iter().flat_map(|&(m, a, k)| std::iter::repeat_n(old_rate(m, a), k)).collect();
         for tier in Tier::ALL {
             let success = |disposition| {
                 let wins = (0..n)
@@ -480,7 +483,7 @@ fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
         ScenarioKind::PedestrianFeint,
         include_str!("../../scenarios/pedestrian_feint.toml"),
         &[
-            ("turn_budget = 18", "turn_budget = 40"),
+            ("turn_budget = 20", "turn_budget = 40"),
             ("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative"),
         ],
     );
@@ -492,7 +495,10 @@ fn blind_search_catches_a_yielder_who_never_gives_up() {
     assert_blind_search_catches(
         ScenarioKind::YieldStandoff,
         include_str!("../../scenarios/yield_standoff.toml"),
-        &[("turn_budget = 22", "turn_budget = 40"), ("patience_s = [0.2, 0.5]", "patience_s = [25.0, 30.0]")],
+        &[
+            ("turn_budget = 24", "turn_budget = 40"),
+            ("patience_s = [1.0, 1.5]           # once", "patience_s = [25.0, 30.0]           # once"),
+        ],
     );
 }
 
@@ -622,7 +628,151 @@ fn baselines_csv_has_the_documented_columns() {
     let mut lines = out.lines();
     assert!(lines.next().unwrap().starts_with("scenario,tier,policy,n,success,success_lo,success_hi,collision"));
     let rows: Vec<&str> = lines.collect();
-    assert_eq!(rows.len(), 2 * 6);
+    let policies = negotiator::policy::PolicyKind::ALL.len();
+    assert_eq!(rows.len(), 2 * policies);
     assert!(rows[0].starts_with("yield_standoff,1,expert,5,"));
-    assert!(rows[6].starts_with("yield_standoff,3,expert,5,"));
+    assert!(rows[policies].starts_with("yield_standoff,3,expert,5,"));
+}
+
+/// The cells whose evidence comes with slack today: the expert reading the
+/// scene one decision late succeeds >= 0.85 there (two decisions late
+/// >= 0.60 where listed), on a small seed set.
+#[test]
+fn a_late_reader_succeeds_where_the_scenarios_give_slack() {
+    use ScenarioKind::{ContestedMerge as M, PedestrianFeint as P, YieldStandoff as Y};
+    let set = ScenarioSet::default();
+    // (scenario, tier, whether the two-decisions-late bar holds too)
+    let cells = [
+        (Y, Tier::T1, true),
+        (Y, Tier::T2, true),
+        (Y, Tier::T3, true),
+        (P, Tier::T1, true),
+        (P, Tier::T2, false),
+        (M, Tier::T1, true),
+        (M, Tier::T2, true),
+    ];
+    for (scenario, tier, two) in cells {
+        let late = &validate::late_readers(&set, &[scenario], &[tier], 0..100)[0];
+        assert!(late.one_late >= validate::LATE_READER, "{scenario}/t{tier}: one late {}", late.one_late);
+        if two {
+            assert!(late.two_late >= validate::TWO_LATE_READER, "{scenario}/t{tier}: two late {}", late.two_late);
+        }
+        assert!(late.slack_median_s >= 1.0, "{scenario}/t{tier}: median slack {}", late.slack_median_s);
+    }
+}
+
+/// The late-reader line catches a knife-edge the other lines miss.
+fn assert_late_reader_catches(kind: ScenarioKind, builtin: &str, tiers: &[Tier], edits: &[(&str, &str)]) {
+    let one_late = |set: &ScenarioSet| {
+        validate::late_readers(set, &[kind], tiers, 0..100).iter().map(|c| c.one_late).fold(1.0, f64::min)
+    };
+    let honest = one_late(&ScenarioSet::default());
+    assert!(honest >= validate::LATE_READER, "built-in: one decision late {honest}");
+    let mut text = builtin.to_string();
+    for (from, to) in edits {
+        assert!(text.contains(from), "the planted change '{from}' did not apply");
+        text = text.replace(from, to);
+    }
+    let mut set = ScenarioSet::default();
+    set.replace(ScenarioConfig::from_toml("knife_edge.toml", &text).unwrap());
+    assert!(one_late(&set) < validate::LATE_READER, "planted: one decision late {}", one_late(&set));
+    let planted = validate::check_late_reader(&validate::late_readers(&set, &[kind], tiers, 0..100));
+    assert!(!planted.pass, "{}", planted.figure);
+    // The on-time expert still solves it: only a reader's reaction time fails.
+    let solvable = validate::check_solvable(&grid(&set, &[kind], tiers, 100));
+    assert!(solvable.pass, "{}", solvable.figure);
+}
+
+/// A yielder that takes its turn 0.2 s after the ego hangs back at its
+/// stop leaves no time for a driver who saw it stop.
+#[test]
+fn the_late_reader_line_catches_a_yielder_that_cannot_wait_a_decision() {
+    assert_late_reader_catches(
+        ScenarioKind::YieldStandoff,
+        include_str!("../../scenarios/yield_standoff.toml"),
+        &Tier::ALL,
+        &[
+            ("patience_s = [1.0, 1.5]           # once", "patience_s = [0.2, 0.2]           # once"),
+            ("patience_s = [1.0, 1.5]           # a stopped", "patience_s = [0.2, 0.2]           # a stopped"),
+        ],
+    );
+}
+
+/// A crosser that steps out inside the expert's go threshold (1.2 s before
+/// the car arrives) is met by the expert in time, and by nobody later.
+#[test]
+fn the_late_reader_line_catches_a_step_out_inside_the_experts_go_threshold() {
+    assert_late_reader_catches(
+        ScenarioKind::PedestrianFeint,
+        include_str!("../../scenarios/pedestrian_feint.toml"),
+        &[Tier::T2],
+        &[("step_lead_s = [1.5, 1.7]", "step_lead_s = [1.0, 1.1]")],
+    );
+}
+
+/// The rule the paper's expert states, "wait for the committed signal (the
+/// other car actually stopping), then go", works against every yielder,
+/// also for a driver who sees the stop a decision late: a stopped yielder
+/// waits long enough (SPEC section 3).
+#[test]
+fn a_stopped_yielder_waits_for_a_driver_who_saw_it_stop() {
+    use negotiator::observation::Scene;
+    use negotiator::policy::{Policy, go, hedge};
+    struct WaitForStop {
+        lag: usize,
+        seen: Vec<Scene>,
+    }
+    impl Policy for WaitForStop {
+        fn act(&mut self, obs: &Observation) -> Action {
+            self.seen.push(obs.scene);
+            let Scene::YieldStandoff { other, follower, .. } = self.seen[self.seen.len().saturating_sub(1 + self.lag)]
+            else {
+                unreachable!("an intersection scene");
+            };
+            let d = obs.ego_to_conflict_m();
+            let stopped = other.now.velocity_mps <= 0.05 && other.now.position_m > 0.0;
+            let through = [other, follower].iter().all(|t| t.now.position_m < -7.2);
+            if d < 0.5 || stopped || through { go() } else { hedge(obs.ego.speed_mps, d - 3.0) }
+        }
+    }
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::YieldStandoff);
+    let [_, yielder] = ScenarioKind::YieldStandoff.dispositions();
+    for tier in Tier::ALL {
+        for lag in [0, 1] {
+            let n = 200;
+            let wins = (0..n)
+                .filter(|&seed| {
+                    let mut episode = Episode::with_disposition(config, tier, seed, yielder);
+                    let mut p = WaitForStop { lag, seen: Vec::new() };
+                    while !episode.is_done() {
+                        let action = p.act(episode.observation());
+                        episode.step(action);
+                    }
+                    episode.finish().outcome == Outcome::Success
+                })
+                .count();
+            let share = wins as f64 / n as f64;
+            assert!(share >= 0.95, "t{tier}, {lag} decisions late: {share}");
+        }
+    }
+}
+
+/// The merge's noisy tier says so, with the noise's size, and only there
+/// (the hidden-disposition check compares the whole text).
+#[test]
+fn the_noisy_tier_states_its_noise() {
+    let set = ScenarioSet::default();
+    for kind in ScenarioKind::ALL {
+        for tier in Tier::ALL {
+            let text = render_scene(Episode::new(set.get(kind), tier, 1).observation());
+            let noisy = kind == ScenarioKind::ContestedMerge && tier == Tier::T2;
+            assert_eq!(text.contains("Readings: "), noisy, "{kind}/t{tier}");
+            if noisy {
+                assert!(text.contains("noise of 1.5 m and 0.8 m/s"), "{text}");
+                let parsed = negotiator::observation::parse_scene(&text).unwrap();
+                assert_eq!(parsed.reading_noise.map(|n| n.position_sd_m), Some(1.5));
+            }
+        }
+    }
 }

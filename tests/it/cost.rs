@@ -322,18 +322,18 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     };
     let plan = dry(&["--assume-latency", "0.5"]);
     let table: Vec<&str> = plan.lines().filter(|l| l.starts_with('|')).collect();
-    insta::assert_snapshot!(table.join("\n"), @r"
+    insta::assert_snapshot!(table.join("\n"), @"
     | scenario | tier | episodes | turns/ep (expert) | turn budget | prompt tokens/ep | cacheable | answer tokens/ep |
     |---|---|---|---|---|---|---|---|
-    | yield_standoff | 1 | 3 | 17.33 | 22 | 55856 | 89.8% | 456 |
-    | yield_standoff | 2 | 3 | 15.33 | 22 | 44920 | 88.7% | 397 |
-    | yield_standoff | 3 | 3 | 13.67 | 22 | 35525 | 87.2% | 349 |
-    | pedestrian_feint | 1 | 3 | 13.00 | 18 | 26794 | 86.7% | 329 |
-    | pedestrian_feint | 2 | 3 | 15.67 | 18 | 37823 | 88.9% | 400 |
-    | pedestrian_feint | 3 | 3 | 13.00 | 18 | 26793 | 86.8% | 329 |
-    | contested_merge | 1 | 3 | 17.33 | 25 | 53913 | 90.1% | 455 |
-    | contested_merge | 2 | 3 | 22.33 | 25 | 82948 | 91.8% | 604 |
-    | contested_merge | 3 | 3 | 19.67 | 25 | 66795 | 91.0% | 518 |
+    | yield_standoff | 1 | 3 | 18.67 | 24 | 67138 | 90.5% | 494 |
+    | yield_standoff | 2 | 3 | 15.67 | 24 | 48725 | 89.0% | 407 |
+    | yield_standoff | 3 | 3 | 14.00 | 24 | 38344 | 87.4% | 356 |
+    | pedestrian_feint | 1 | 3 | 13.00 | 20 | 29060 | 86.7% | 337 |
+    | pedestrian_feint | 2 | 3 | 15.67 | 20 | 41109 | 88.8% | 409 |
+    | pedestrian_feint | 3 | 3 | 13.00 | 20 | 29055 | 86.7% | 337 |
+    | contested_merge | 1 | 3 | 17.33 | 25 | 57394 | 90.1% | 457 |
+    | contested_merge | 2 | 3 | 22.33 | 25 | 99154 | 91.8% | 610 |
+    | contested_merge | 3 | 3 | 19.67 | 25 | 71154 | 91.0% | 523 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");
     let (turns, prompt, completion) = expected_line(&plan);

@@ -72,6 +72,31 @@ fn cells(dir: &Path) -> Value {
     s["cells"].clone()
 }
 
+/// `serve --policy expert_late` sees one turn at a time, yet it reads the
+/// conversation's earlier scenes as the in-process late expert remembers
+/// them.
+#[test]
+fn eval_against_served_late_expert_scores_like_the_in_process_one() {
+    let server = Server::start(&["--policy", "expert_late"]);
+    let out = scratch("expert_late");
+    let n = 30;
+    ok(eval(&server.base_url(), &out, &["--scenario", "all", "--tier", "all", "-n", &n.to_string(), "-c", "16"]));
+    for cell in cells(&out).as_array().unwrap() {
+        let kind: ScenarioKind = cell["scenario"].as_str().unwrap().parse().unwrap();
+        let tier: Tier = cell["tier"].as_u64().unwrap().to_string().parse().unwrap();
+        let config = ScenarioConfig::builtin(kind);
+        let mut late = PolicyKind::ExpertLate.build();
+        let wins =
+            (0..n as u64).filter(|s| run_episode(&config, tier, *s, late.as_mut()).outcome == Outcome::Success).count();
+        let in_process = wins as f64 / n as f64;
+        let served = cell["success"]["estimate"].as_f64().unwrap();
+        assert!(
+            (served - in_process).abs() <= 1.0 / n as f64 + 1e-9,
+            "{kind} tier {tier}: served {served}, in-process {in_process}"
+        );
+    }
+}
+
 #[test]
 fn eval_against_served_expert_scores_like_the_in_process_expert() {
     let server = Server::start(&["--policy", "expert"]);

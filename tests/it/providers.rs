@@ -380,13 +380,17 @@ fn together_rules(body: &Value) -> Result<(), (u16, Value)> {
     Ok(())
 }
 
+/// vLLM rejects a request whose prompt plus completion limit exceeds the
+/// served context (`--max-model-len`; Qwen3-8B's own default is 40,960).
+/// Modelled as a deployment that caps it at 16,384: a full-history episode
+/// of the longest scenario (24 turns) fits with the 1,024-token limit.
 fn vllm_rules(body: &Value) -> Result<(), (u16, Value)> {
     let (inputs, completion) = (prompt_tokens(body), limit_of(body).unwrap_or(0));
-    if inputs + completion > 8192 {
+    if inputs + completion > 16_384 {
         return Err((
             400,
             json!({"object": "error", "type": "BadRequestError", "param": null, "code": 400,
-                   "message": format!("This model's maximum context length is 8192 tokens. However, you requested {} tokens ({inputs} in the messages, {completion} in the completion). Please reduce the length of the messages or completion.", inputs + completion)}),
+                   "message": format!("This model's maximum context length is 16384 tokens. However, you requested {} tokens ({inputs} in the messages, {completion} in the completion). Please reduce the length of the messages or completion.", inputs + completion)}),
         ));
     }
     Ok(())
