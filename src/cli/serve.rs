@@ -17,7 +17,8 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
     /// The scripted model: expert, always_proceed, always_stop, cautious,
-    /// random or cue_follower.
+    /// random, cue_follower or expert_late (the expert reading the scene
+    /// one decision late, from the conversation's earlier scenes).
     #[arg(long)]
     pub policy: String,
     /// Delay added to every answered request (ms).

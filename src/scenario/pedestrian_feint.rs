@@ -48,10 +48,12 @@
 //! How long a feinter waits, and why: it stands at the kerb for at least
 //! `look_s` (1.0-1.5 s, a human perception-reaction time) after it has
 //! stopped there before it steps in, however the car moves, so a driver who
-//! sees it stop has two decisions or more to go. The turn budget (20)
-//! leaves a driver who gives way to a crosser one decision late time to
+//! sees it stop has two decisions or more to go. The turn budget (20 on
+//! tiers 1-2) leaves a driver who gives way to a crosser one decision late time to
 //! finish; a feinter who gave up crosses hesitantly (0.7-0.9 m/s), so that
-//! outwaiting it still does not fit. The tier-3 dart (triggered 1.35-1.45 s
+//! outwaiting it still does not fit (tier 3 keeps 18: a longer budget lets
+//! one blind schedule in five outwait it, and its dart gives a late reader
+//! no room anyway). The tier-3 dart (triggered 1.35-1.45 s
 //! before the car would arrive) does not yet leave a late reader room: see
 //! `validate`'s late-reader line.
 //!

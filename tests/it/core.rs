@@ -68,7 +68,7 @@ fn golden_vectors_pin_trajectories() {
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.1656, 0.0000) v 2.2500 reward 0.991777 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (19.0149, 0.0000) v 4.0000 reward -0.179608 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 20 t 10.0 ego (-19.7207, 0.0000) v 0.0000 other (0.0000, 5.2515) v 2.5000 reward -0.151392 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 2.7515) v 2.5000 reward -0.152324 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (35.4264, 0.0000) v 6.5000 reward -0.279279 dc 0.000");
     let ease =
@@ -174,7 +174,8 @@ fn tiers_bite_check_catches_a_toothless_bluff() {
 #[test]
 fn solvable_check_catches_an_impossible_budget() {
     let mut set = ScenarioSet::default();
-    let text = include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = 20", "turn_budget = 4");
+    let text =
+        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [20, 20, 18]", "turn_budget = 4");
     set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
     assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
 }
@@ -483,7 +484,7 @@ fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
         ScenarioKind::PedestrianFeint,
         include_str!("../../scenarios/pedestrian_feint.toml"),
         &[
-            ("turn_budget = 20", "turn_budget = 40"),
+            ("turn_budget = [20, 20, 18]", "turn_budget = 40"),
             ("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative"),
         ],
     );
