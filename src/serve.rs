@@ -9,6 +9,15 @@
 //! error. `random` draws from a seed hashed from the scene text and the
 //! server seed, so the same scene gets the same answer.
 //!
+//! A request with `"stream": true` is answered as OpenAI's API streams:
+//! server-sent events, one `chat.completion.chunk` with the role, one with
+//! the content, one with the finish reason, a last chunk with no choices
+//! and the usage when `stream_options.include_usage` asks for it, then
+//! `data: [DONE]`. A harness that wraps the scene in JSON (a user message
+//! such as `{"observation": {...}, "action_schema": {...}}`, as an
+//! environment client forwards it) is read too: the scene is the last
+//! string inside it that holds one.
+//!
 //! Token counts in `usage` are estimates: request body bytes / 4 for the
 //! prompt, reply bytes / 4 for the completion.
 //!
@@ -131,6 +140,16 @@ struct ChatIn {
     model: Option<String>,
     #[serde(default)]
     messages: Vec<MessageIn>,
+    #[serde(default)]
+    stream: bool,
+    #[serde(default)]
+    stream_options: Option<StreamOptions>,
+}
+
+#[derive(Deserialize)]
+struct StreamOptions {
+    #[serde(default)]
+    include_usage: bool,
 }
 
 #[derive(Deserialize)]
@@ -142,11 +161,70 @@ struct MessageIn {
 }
 
 fn content_text(v: &Value) -> Option<String> {
-    match v {
-        Value::String(s) => Some(s.clone()),
-        Value::Array(parts) => Some(parts.iter().filter_map(|p| p.get("text").and_then(Value::as_str)).collect()),
-        _ => None,
+    let text = match v {
+        Value::String(s) => s.clone(),
+        Value::Array(parts) => parts.iter().filter_map(|p| p.get("text").and_then(Value::as_str)).collect(),
+        _ => return None,
+    };
+    Some(scene_inside(&text).unwrap_or(text))
+}
+
+/// A message that is JSON rather than a scene (a harness forwarding an
+/// environment's observation): the last string inside it that holds a scene,
+/// from its last "Scene:" line on. None when the text is not JSON or holds
+/// no scene.
+fn scene_inside(text: &str) -> Option<String> {
+    let trimmed = text.trim_start();
+    if !(trimmed.starts_with('{') || trimmed.starts_with('[')) {
+        return None;
     }
+    let value: Value = serde_json::from_str(trimmed).ok()?;
+    fn strings<'a>(v: &'a Value, out: &mut Vec<&'a str>) {
+        match v {
+            Value::String(s) => out.push(s),
+            Value::Array(items) => items.iter().for_each(|i| strings(i, out)),
+            Value::Object(map) => map.values().for_each(|i| strings(i, out)),
+            _ => {}
+        }
+    }
+    let mut all = Vec::new();
+    strings(&value, &mut all);
+    all.iter().rev().find_map(|s| {
+        let start = if s.starts_with("Scene:") { Some(0) } else { s.rfind("\nScene:").map(|i| i + 1) }?;
+        let scene = &s[start..];
+        parse_scene(scene).is_ok().then(|| scene.to_string())
+    })
+}
+
+/// A completion as OpenAI streams it: server-sent events of chunks, the
+/// usage last when asked for, then `[DONE]`.
+fn stream_events(reply: &Value, include_usage: bool) -> String {
+    let choice = &reply["choices"][0];
+    let chunk = |choices: Value, usage: Option<&Value>| {
+        let mut c = json!({
+            "id": reply["id"],
+            "object": "chat.completion.chunk",
+            "created": reply["created"],
+            "model": reply["model"],
+            "system_fingerprint": reply["system_fingerprint"],
+            "choices": choices,
+        });
+        if include_usage {
+            c["usage"] = usage.cloned().unwrap_or(Value::Null);
+        }
+        format!("data: {c}\n\n")
+    };
+    let delta = |d: Value, finish: Value| json!([{"index": 0, "delta": d, "logprobs": null, "finish_reason": finish}]);
+    let mut out = chunk(delta(json!({"role": "assistant", "content": ""}), Value::Null), None);
+    if let Some(content) = choice["message"]["content"].as_str() {
+        out.push_str(&chunk(delta(json!({"content": content}), Value::Null), None));
+    }
+    out.push_str(&chunk(delta(json!({}), choice["finish_reason"].clone()), None));
+    if include_usage {
+        out.push_str(&chunk(json!([]), Some(&reply["usage"])));
+    }
+    out.push_str("data: [DONE]\n\n");
+    out
 }
 
 /// The scripted model's answer to a scene text.
@@ -401,7 +479,13 @@ async fn chat(State(state): State<Arc<ServeState>>, body: Bytes) -> Response {
         }
         (Some(content), "stop")
     };
-    let reply = completion(&state, i, &model, content, finish, body.len()).to_string();
+    let reply = completion(&state, i, &model, content, finish, body.len());
+    let (reply, content_type) = if request.stream {
+        let usage = request.stream_options.as_ref().is_some_and(|o| o.include_usage);
+        (stream_events(&reply, usage), "text/event-stream")
+    } else {
+        (reply.to_string(), "application/json")
+    };
     if draw(cfg.seed, i, 3) < cfg.drop_rate {
         state.stats.dropped.fetch_add(1, Ordering::Relaxed);
         // Headers and half the body, then a broken stream: hyper aborts the
@@ -410,11 +494,11 @@ async fn chat(State(state): State<Arc<ServeState>>, body: Bytes) -> Response {
         let chunks: Vec<Result<Vec<u8>, std::io::Error>> =
             vec![Ok(half), Err(std::io::Error::new(std::io::ErrorKind::ConnectionReset, "injected drop"))];
         let mut r = Response::new(Body::from_stream(futures_util::stream::iter(chunks)));
-        r.headers_mut().insert(header::CONTENT_TYPE, HeaderValue::from_static("application/json"));
+        r.headers_mut().insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
         return r;
     }
     state.stats.ok.fetch_add(1, Ordering::Relaxed);
-    ([(header::CONTENT_TYPE, "application/json")], reply).into_response()
+    ([(header::CONTENT_TYPE, content_type)], reply).into_response()
 }
 
 async fn models(State(state): State<Arc<ServeState>>) -> Response {

@@ -155,3 +155,70 @@ fn bad_flags_are_usage_errors() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--fail-rate"));
 }
+
+/// `"stream": true` gets OpenAI's server-sent events: chunks whose deltas
+/// add up to the non-streamed reply, the usage last when asked for, then
+/// `[DONE]`.
+#[test]
+fn streams_like_an_openai_server() {
+    let server = Server::start(&["--policy", "expert"]);
+    let text = scene(negotiator::scenario::ScenarioKind::YieldStandoff);
+    let plain = serde_json::json!({"model": "expert", "messages": [{"role": "user", "content": text}]});
+    let (status, whole) = post(server.port, &plain);
+    assert_eq!(status, 200);
+    let mut streamed = plain.clone();
+    streamed["stream"] = serde_json::json!(true);
+    streamed["stream_options"] = serde_json::json!({"include_usage": true});
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    let (content_type, body) = rt.block_on(async {
+        let r = reqwest::Client::new()
+            .post(format!("http://127.0.0.1:{}/v1/chat/completions", server.port))
+            .json(&streamed)
+            .send()
+            .await
+            .unwrap();
+        let ct = r.headers()["content-type"].to_str().unwrap().to_string();
+        (ct, r.text().await.unwrap())
+    });
+    assert_eq!(content_type, "text/event-stream");
+    let events: Vec<&str> =
+        body.split("\n\n").filter(|e| !e.is_empty()).map(|e| e.strip_prefix("data: ").unwrap()).collect();
+    assert_eq!(*events.last().unwrap(), "[DONE]");
+    let chunks: Vec<serde_json::Value> =
+        events[..events.len() - 1].iter().map(|e| serde_json::from_str(e).unwrap()).collect();
+    assert!(chunks.iter().all(|c| c["object"] == "chat.completion.chunk"));
+    let content: String =
+        chunks.iter().filter_map(|c| c["choices"][0]["delta"]["content"].as_str()).collect::<Vec<_>>().concat();
+    assert_eq!(content, whole["choices"][0]["message"]["content"].as_str().unwrap());
+    assert_eq!(chunks[0]["choices"][0]["delta"]["role"], "assistant");
+    let finish: Vec<&serde_json::Value> =
+        chunks.iter().filter_map(|c| c["choices"][0].get("finish_reason")).filter(|f| !f.is_null()).collect();
+    assert_eq!(finish, [&serde_json::json!("stop")]);
+    let last = chunks.last().unwrap();
+    assert_eq!(last["choices"], serde_json::json!([]));
+    assert!(last["usage"]["total_tokens"].as_u64().unwrap() > 0);
+}
+
+/// A harness that forwards an environment's observation as JSON (the scene
+/// text inside, with the instructions before it) gets the answer the bare
+/// scene gets.
+#[test]
+fn reads_a_scene_wrapped_in_a_json_observation() {
+    let server = Server::start(&["--policy", "expert"]);
+    for kind in negotiator::scenario::ScenarioKind::ALL {
+        let text = scene(kind);
+        let ask = |content: String| {
+            let body = serde_json::json!({"model": "expert", "messages": [{"role": "user", "content": content}]});
+            let (status, reply) = post(server.port, &body);
+            assert_eq!(status, 200);
+            reply["choices"][0]["message"]["content"].as_str().unwrap().to_string()
+        };
+        let wrapped = serde_json::json!({
+            "observation": {"prompt": format!("You are the driver.\n\n{text}"), "turn": 1, "done": false},
+            "action_schema": {"type": "object", "properties": {"maneuver": {"type": "string"}}},
+        });
+        let bare = ask(text.clone());
+        assert_eq!(ask(wrapped.to_string()), bare, "{kind}");
+        assert!(!bare.contains("no readable scene"), "{bare}");
+    }
+}
