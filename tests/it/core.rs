@@ -455,6 +455,19 @@ fn blind_merge_plays_win_under_one_disposition_at_most() {
     }
 }
 
+/// The built-in scenarios with one scenario file edited: each `(from, to)`
+/// replaces text that must be there.
+fn planted_set(builtin: &str, edits: &[(&str, &str)]) -> ScenarioSet {
+    let mut text = builtin.to_string();
+    for (from, to) in edits {
+        assert!(text.contains(from), "the planted change '{from}' did not apply");
+        text = text.replace(from, to);
+    }
+    let mut set = ScenarioSet::default();
+    set.replace(ScenarioConfig::from_toml("planted.toml", &text).unwrap());
+    set
+}
+
 /// The blind-play check passes on the built-in `kind`, and fails once the
 /// planted `edits` to its scenario file re-open an outwaiting win.
 fn assert_blind_search_catches(kind: ScenarioKind, builtin: &str, edits: &[(&str, &str)]) {
@@ -465,13 +478,7 @@ fn assert_blind_search_catches(kind: ScenarioKind, builtin: &str, edits: &[(&str
     };
     let honest = check(&ScenarioSet::default());
     assert!(honest.pass, "{}", honest.figure);
-    let mut text = builtin.to_string();
-    for (from, to) in edits {
-        assert!(text.contains(from), "the planted change '{from}' did not apply");
-        text = text.replace(from, to);
-    }
-    let mut set = ScenarioSet::default();
-    set.replace(ScenarioConfig::from_toml("patient.toml", &text).unwrap());
+    let set = planted_set(builtin, edits);
     let planted = check(&set);
     assert!(!planted.pass, "{}", planted.figure);
 }
@@ -669,13 +676,7 @@ fn assert_late_reader_catches(kind: ScenarioKind, builtin: &str, tiers: &[Tier],
     };
     let honest = one_late(&ScenarioSet::default());
     assert!(honest >= validate::LATE_READER, "built-in: one decision late {honest}");
-    let mut text = builtin.to_string();
-    for (from, to) in edits {
-        assert!(text.contains(from), "the planted change '{from}' did not apply");
-        text = text.replace(from, to);
-    }
-    let mut set = ScenarioSet::default();
-    set.replace(ScenarioConfig::from_toml("knife_edge.toml", &text).unwrap());
+    let set = planted_set(builtin, edits);
     assert!(one_late(&set) < validate::LATE_READER, "planted: one decision late {}", one_late(&set));
     let planted = validate::check_late_reader(&validate::late_readers(&set, &[kind], tiers, 0..100));
     assert!(!planted.pass, "{}", planted.figure);

@@ -72,47 +72,19 @@ fn cells(dir: &Path) -> Value {
     s["cells"].clone()
 }
 
-/// `serve --policy expert_late` sees one turn at a time, yet it reads the
-/// conversation's earlier scenes as the in-process late expert remembers
-/// them.
-#[test]
-fn eval_against_served_late_expert_scores_like_the_in_process_one() {
-    let server = Server::start(&["--policy", "expert_late"]);
-    let out = scratch("expert_late");
-    let n = 30;
+/// `eval` against `serve --policy P` on every cell, n = 30: the run
+/// directory, and each cell's served success checked against `P` in process.
+fn served_scores_like_in_process(policy: PolicyKind, n: usize) -> std::path::PathBuf {
+    let server = Server::start(&["--policy", policy.name()]);
+    let out = scratch(policy.name());
     ok(eval(&server.base_url(), &out, &["--scenario", "all", "--tier", "all", "-n", &n.to_string(), "-c", "16"]));
     for cell in cells(&out).as_array().unwrap() {
         let kind: ScenarioKind = cell["scenario"].as_str().unwrap().parse().unwrap();
         let tier: Tier = cell["tier"].as_u64().unwrap().to_string().parse().unwrap();
         let config = ScenarioConfig::builtin(kind);
-        let mut late = PolicyKind::ExpertLate.build();
-        let wins =
-            (0..n as u64).filter(|s| run_episode(&config, tier, *s, late.as_mut()).outcome == Outcome::Success).count();
-        let in_process = wins as f64 / n as f64;
-        let served = cell["success"]["estimate"].as_f64().unwrap();
-        assert!(
-            (served - in_process).abs() <= 1.0 / n as f64 + 1e-9,
-            "{kind} tier {tier}: served {served}, in-process {in_process}"
-        );
-    }
-}
-
-#[test]
-fn eval_against_served_expert_scores_like_the_in_process_expert() {
-    let server = Server::start(&["--policy", "expert"]);
-    let out = scratch("expert");
-    let n = 30;
-    ok(eval(&server.base_url(), &out, &["--scenario", "all", "--tier", "all", "-n", &n.to_string(), "-c", "16"]));
-    let lines = lines(&out);
-    assert_one_line_per_key(&lines, 9 * n);
-    let cells = cells(&out);
-    for cell in cells.as_array().unwrap() {
-        let kind: ScenarioKind = cell["scenario"].as_str().unwrap().parse().unwrap();
-        let tier: Tier = cell["tier"].as_u64().unwrap().to_string().parse().unwrap();
-        let config = ScenarioConfig::builtin(kind);
-        let mut expert = PolicyKind::Expert.build();
+        let mut in_process = policy.build();
         let wins = (0..n as u64)
-            .filter(|s| run_episode(&config, tier, *s, expert.as_mut()).outcome == Outcome::Success)
+            .filter(|s| run_episode(&config, tier, *s, in_process.as_mut()).outcome == Outcome::Success)
             .count();
         let in_process = wins as f64 / n as f64;
         let served = cell["success"]["estimate"].as_f64().unwrap();
@@ -120,11 +92,28 @@ fn eval_against_served_expert_scores_like_the_in_process_expert() {
         // precision: a knife-edge decision may flip one episode, no more.
         assert!(
             (served - in_process).abs() <= 1.0 / n as f64 + 1e-9,
-            "{kind} tier {tier}: served {served}, in-process {in_process}"
+            "{policy} {kind} tier {tier}: served {served}, in-process {in_process}"
         );
         assert_eq!(cell["parse_error_rate"].as_f64().unwrap(), 0.0);
         assert_eq!(cell["missing"].as_u64().unwrap(), 0);
     }
+    out
+}
+
+/// `serve --policy expert_late` sees one turn at a time, yet it reads the
+/// conversation's earlier scenes as the in-process late expert remembers
+/// them.
+#[test]
+fn eval_against_served_late_expert_scores_like_the_in_process_one() {
+    served_scores_like_in_process(PolicyKind::ExpertLate, 30);
+}
+
+#[test]
+fn eval_against_served_expert_scores_like_the_in_process_expert() {
+    let n = 30;
+    let out = served_scores_like_in_process(PolicyKind::Expert, n);
+    let lines = lines(&out);
+    assert_one_line_per_key(&lines, 9 * n);
     // The transcript is complete.
     let first = &lines[0];
     let turn = &first["turns"][0];
