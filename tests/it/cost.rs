@@ -329,7 +329,7 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | yield_standoff | 2 | 3 | 15.67 | 24 | 48725 | 89.0% | 407 |
     | yield_standoff | 3 | 3 | 14.00 | 24 | 38344 | 87.4% | 356 |
     | pedestrian_feint | 1 | 3 | 13.00 | 20 | 29060 | 86.7% | 337 |
-    | pedestrian_feint | 2 | 3 | 15.67 | 20 | 41109 | 88.8% | 409 |
+    | pedestrian_feint | 2 | 3 | 15.00 | 20 | 37859 | 88.3% | 396 |
     | pedestrian_feint | 3 | 3 | 13.00 | 18 | 29053 | 86.7% | 337 |
     | contested_merge | 1 | 3 | 17.33 | 25 | 57394 | 90.1% | 457 |
     | contested_merge | 2 | 3 | 22.33 | 25 | 99154 | 91.8% | 610 |
