@@ -161,12 +161,11 @@ struct MessageIn {
 }
 
 fn content_text(v: &Value) -> Option<String> {
-    let text = match v {
-        Value::String(s) => s.clone(),
-        Value::Array(parts) => parts.iter().filter_map(|p| p.get("text").and_then(Value::as_str)).collect(),
-        _ => return None,
-    };
-    Some(scene_inside(&text).unwrap_or(text))
+    match v {
+        Value::String(s) => Some(s.clone()),
+        Value::Array(parts) => Some(parts.iter().filter_map(|p| p.get("text").and_then(Value::as_str)).collect()),
+        _ => None,
+    }
 }
 
 /// A message that is JSON rather than a scene (a harness forwarding an
@@ -371,7 +370,8 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     let text = |role: &str| -> Vec<String> {
         messages.iter().filter(|m| m.role == role).filter_map(|m| content_text(&m.content)).collect()
     };
-    let scenes = text("user");
+    // Only user messages carry scenes; a scene wrapped in JSON is unwrapped.
+    let scenes: Vec<String> = text("user").into_iter().map(|t| scene_inside(&t).unwrap_or(t)).collect();
     let scene = scenes.last().map_or("", String::as_str);
     let earlier: Vec<&str> = scenes[..scenes.len().saturating_sub(1)].iter().map(String::as_str).collect();
     let Some(index) = &cfg.belief else {

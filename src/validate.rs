@@ -429,16 +429,24 @@ pub fn late_readers(
     }
     crate::par::par_map(&keys, |&(scenario, tier)| {
         let config = set.get(scenario);
-        let succeeds = |lag: usize, seed: u64| {
-            let mut policy = ExpertLate::new(lag);
-            crate::episode::run_episode(config, tier, seed, &mut policy).outcome == Outcome::Success
-        };
-        let n = seeds.clone().count().max(1) as f64;
-        let share = |lag: usize| seeds.clone().filter(|&seed| succeeds(lag, seed)).count() as f64 / n;
-        let mut slack: Vec<f64> = seeds
+        // Per seed, whether the expert succeeds at each delay 0 ..= MAX_SLACK_LAG.
+        let outcomes: Vec<Vec<bool>> = seeds
             .clone()
             .map(|seed| {
-                let ok = (0..=MAX_SLACK_LAG).take_while(|&lag| succeeds(lag, seed)).count();
+                (0..=MAX_SLACK_LAG)
+                    .map(|lag| {
+                        let mut policy = ExpertLate::new(lag);
+                        crate::episode::run_episode(config, tier, seed, &mut policy).outcome == Outcome::Success
+                    })
+                    .collect()
+            })
+            .collect();
+        let n = outcomes.len().max(1) as f64;
+        let share = |lag: usize| outcomes.iter().filter(|o| o[lag]).count() as f64 / n;
+        let mut slack: Vec<f64> = outcomes
+            .iter()
+            .map(|o| {
+                let ok = o.iter().take_while(|&&s| s).count();
                 // `ok` delays (0 .. ok-1) succeed: the longest is ok - 1.
                 ok.saturating_sub(1) as f64 * crate::observation::HISTORY_SPACING_S
             })

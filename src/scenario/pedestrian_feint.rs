@@ -49,13 +49,14 @@
 //! `look_s` (1.0-1.5 s, a human perception-reaction time) after it has
 //! stopped there before it steps in, however the car moves, so a driver who
 //! sees it stop has two decisions or more to go. The turn budget (20 on
-//! tiers 1-2) leaves a driver who gives way to a crosser one decision late time to
-//! finish; a feinter who gave up crosses hesitantly (0.7-0.9 m/s), so that
-//! outwaiting it still does not fit (tier 3 keeps 18: a longer budget lets
-//! one blind schedule in five outwait it, and its dart gives a late reader
-//! no room anyway). The tier-3 dart (triggered 1.35-1.45 s
-//! before the car would arrive) does not yet leave a late reader room: see
-//! `validate`'s late-reader line.
+//! tiers 1-2) leaves a driver who gives way to a crosser one decision late
+//! time to finish; a feinter who gave up crosses hesitantly (0.7-0.9 m/s),
+//! so that outwaiting it still does not fit. The tier-2 crosser steps out
+//! early enough (1.7-1.9 s before a full-throttle arrival) for a reader two
+//! decisions late to give way. Tier 3 keeps 18 decisions (a longer budget
+//! lets one blind schedule in five outwait it), and its dart (triggered
+//! 1.35-1.45 s before the car would arrive) does not yet leave a late
+//! reader room: see `validate`'s late-reader line.
 //!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is

@@ -28,7 +28,7 @@
 //!   committed car re-accelerate into the zone (the ego's motion shows it
 //!   will enter within the commit horizon); hanging back makes it roll
 //!   through at its floor speed and then drive on; a yielder stops and
-//!   waits as on tier 1, with more patience (its stop is the first sign).
+//!   waits as on tier 1.
 //!
 //! How long a stopped yielder waits, and why: it takes its turn only once
 //! the ego has hung back for 1.0-1.5 s in all after it came to rest (drawn
