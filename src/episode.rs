@@ -519,6 +519,12 @@ impl Episode {
     /// Grade the finished (or abandoned) episode. An episode stopped before
     /// its end is graded as a timeout at the current state.
     pub fn finish(self) -> EpisodeRecord {
+        self.record()
+    }
+
+    /// [`Episode::finish`] without giving the episode up (for a front end
+    /// that keeps serving it, such as `env-server`'s state after the end).
+    pub fn record(&self) -> EpisodeRecord {
         let outcome = self.outcome.unwrap_or(Outcome::Timeout);
         let tr = &self.tracker;
         let span = self.goal_s - self.start_s;
@@ -559,8 +565,8 @@ impl Episode {
             outcome,
             grades,
             timing: self.timing,
-            decisions: self.decisions,
-            trajectory: self.trajectory,
+            decisions: self.decisions.clone(),
+            trajectory: self.trajectory.clone(),
             stated_beliefs: Vec::new(),
         }
     }

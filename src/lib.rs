@@ -25,6 +25,8 @@
 //! - [`llm`]: the OpenAI-compatible chat client;
 //! - [`eval`]: `eval`, a language model as the policy;
 //! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;
+//! - `envserver`: the benchmark as an OpenEnv environment (HTTP and
+//!   WebSocket) for trainers and other harnesses;
 //! - [`report`]: leaderboards, paired comparisons, plots, report.html;
 //! - [`redact`]: the one place secrets are scrubbed from everything the
 //!   process writes; [`atomic`]: whole-file writes (temp file + rename);
@@ -36,6 +38,7 @@ pub mod atomic;
 pub mod baselines;
 pub mod belief;
 pub mod cli;
+pub(crate) mod envserver;
 pub mod episode;
 pub mod eval;
 pub mod export;

@@ -531,7 +531,7 @@ pub(crate) async fn serve(host: &str, port: u16, config: ServeConfig) -> std::io
     Ok(state)
 }
 
-async fn shutdown() {
+pub(crate) async fn shutdown() {
     #[cfg(unix)]
     {
         let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {

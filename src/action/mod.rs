@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 
 /// The controller mode a turn selects.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Maneuver {
     Proceed,
@@ -59,7 +59,7 @@ impl fmt::Display for Maneuver {
 
 /// One turn's decision. `acceleration` is a normalised magnitude in
 /// [-1, 1]; `steering` is recorded and ignored (the task is longitudinal).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Action {
     pub maneuver: Maneuver,
     pub acceleration: f64,

@@ -2,6 +2,7 @@
 //! arguments into a validated options value, runs, and returns an exit code.
 
 mod baselines;
+mod env_server;
 mod eval;
 mod report;
 mod serve;
@@ -61,6 +62,8 @@ pub enum Command {
     Validate(validate::ValidateArgs),
     /// Serve a scripted policy as an OpenAI-compatible chat endpoint.
     Serve(serve::ServeArgs),
+    /// Serve the benchmark as an OpenEnv environment (HTTP and WebSocket) for trainers and other harnesses.
+    EnvServer(env_server::EnvServerArgs),
     /// Leaderboards, paired comparisons, plots and an offline report.html from run directories.
     Report(report::ReportArgs),
 }
@@ -71,6 +74,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Baselines(args) => args.run(),
         Command::Validate(args) => args.run(),
         Command::Serve(args) => args.run(),
+        Command::EnvServer(args) => args.run(),
         Command::Report(args) => args.run(),
     }
 }

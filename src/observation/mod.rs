@@ -21,14 +21,14 @@ pub const HISTORY_SPACING_S: f64 = 0.5;
 
 /// Position and velocity of the other agent at one instant, in the
 /// scenario's frame (see [`Scene`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Sample {
     pub position_m: f64,
     pub velocity_mps: f64,
 }
 
 /// The other agent now and over the last two seconds.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Track {
     pub now: Sample,
     pub past: [Sample; HISTORY_LEN],
@@ -44,7 +44,7 @@ impl Track {
 pub use crate::scenario::Scene;
 
 /// The ego's own state.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct EgoView {
     pub speed_mps: f64,
     pub accel_mps2: f64,
@@ -56,14 +56,14 @@ pub struct EgoView {
 /// tier adds it (one standard deviation, drawn afresh each turn). Public: it
 /// is a property of the tier, the same under both dispositions, and a
 /// driver told nothing would misread a jumping position as motion.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ReadingNoise {
     pub position_sd_m: f64,
     pub speed_sd_mps: f64,
 }
 
 /// What a policy sees at one decision.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Observation {
     pub time_s: f64,
     /// 1-based index of this decision.

@@ -7,11 +7,33 @@ use std::fmt::Write;
 
 /// Format with one decimal, never "-0.0".
 pub(super) fn f1(x: f64) -> String {
-    format!("{:.1}", round_to(x, 1))
+    fixed(x, 1)
 }
 
 fn f2(x: f64) -> String {
-    format!("{:.2}", round_to(x, 2))
+    fixed(x, 2)
+}
+
+/// `format!("{:.N$}", round_to(x, N))`, written from the rounded integer
+/// `round(x * 10^N)` instead of through the float formatter (several times
+/// faster, and the scene is rendered every turn by `eval`, `serve` and
+/// `env-server`). The same text: `round_to` yields the double nearest
+/// `k / 10^N`, whose N-decimal rendering is `k`'s digits. Values whose `k`
+/// a double cannot hold exactly (and NaN, infinities) take the formatter.
+fn fixed(x: f64, digits: i32) -> String {
+    let scale = 10f64.powi(digits);
+    let k = (x * scale).round();
+    if !k.is_finite() || k.abs() >= 1e15 {
+        return format!("{:.*}", digits as usize, round_to(x, digits));
+    }
+    let k = k as i64;
+    let unit = 10i64.pow(digits as u32);
+    let mut out = String::with_capacity(12);
+    if k < 0 {
+        out.push('-');
+    }
+    let _ = write!(out, "{}.{:0width$}", k.abs() / unit, k.abs() % unit, width = digits as usize);
+    out
 }
 
 /// `now` formats the current sample, e.g. "21.0 m to the conflict zone, speed 9.4 m/s".
@@ -69,4 +91,54 @@ pub fn render_scene(obs: &Observation) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod fixed_tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn formatter(x: f64, digits: i32) -> String {
+        format!("{:.*}", digits as usize, round_to(x, digits))
+    }
+
+    #[test]
+    fn fixed_matches_the_formatter_at_the_edges() {
+        for x in [
+            0.0,
+            -0.0,
+            0.05,
+            -0.05,
+            0.25,
+            -0.25,
+            0.15,
+            1.45,
+            -1.45,
+            2.675,
+            1e14,
+            -1e14,
+            1e300,
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+            123456.789,
+        ] {
+            for d in [1, 2] {
+                assert_eq!(fixed(x, d), formatter(x, d), "{x} {d}");
+            }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn fixed_matches_the_formatter(x in -1.0e6f64..1.0e6, d in 1i32..=2) {
+            prop_assert_eq!(fixed(x, d), formatter(x, d));
+        }
+
+        #[test]
+        fn fixed_matches_the_formatter_on_any_double(bits in any::<u64>(), d in 1i32..=2) {
+            let x = f64::from_bits(bits);
+            prop_assert_eq!(fixed(x, d), formatter(x, d));
+        }
+    }
 }

@@ -11,7 +11,7 @@ use crate::observation::Track;
 use serde::{Deserialize, Serialize};
 
 /// Scenario-specific geometry, all distances in metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(tag = "scenario", rename_all = "snake_case")]
 pub enum Scene {
     /// `ego_to_conflict_m`: the ego's front bumper to the crossing lane's

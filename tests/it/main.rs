@@ -3,6 +3,7 @@
 mod belief;
 mod core;
 mod cost;
+mod envserver;
 mod eval;
 mod faults;
 mod providers;

@@ -24,19 +24,25 @@ pub struct Server {
 
 impl Server {
     pub fn start(args: &[&str]) -> Server {
+        Server::spawn("serve", args, "/v1")
+    }
+
+    /// `negotiator SUBCOMMAND --port 0 ARGS`, its port read from the first
+    /// line `listening on http://127.0.0.1:PORT{suffix}`.
+    pub fn spawn(subcommand: &str, args: &[&str], suffix: &str) -> Server {
         let mut child = negotiator()
-            .args(["serve", "--port", "0"])
+            .args([subcommand, "--port", "0"])
             .args(args)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
-            .expect("start negotiator serve");
+            .unwrap_or_else(|e| panic!("start negotiator {subcommand}: {e}"));
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
         let port = line
             .trim()
             .strip_prefix("listening on http://127.0.0.1:")
-            .and_then(|r| r.strip_suffix("/v1"))
+            .and_then(|r| r.strip_suffix(suffix))
             .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
             .parse()
             .unwrap();

@@ -1,0 +1,81 @@
+//! `negotiator env-server`: the benchmark as an OpenEnv environment.
+use super::usage;
+use crate::envserver::{EnvServerConfig, EnvServerState};
+use crate::redact::eline;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::Ordering::Relaxed;
+use std::time::Duration;
+
+#[derive(Debug, clap::Args)]
+pub struct EnvServerArgs {
+    /// Address to bind (0.0.0.0 to serve other machines, e.g. in a pod).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Port to bind; 0 picks a free port. The address is printed on stdout
+    /// as `listening on http://HOST:PORT`.
+    #[arg(long, default_value_t = 8000)]
+    pub port: u16,
+    /// Most sessions open at once: WebSocket connections and open HTTP
+    /// episodes together. Past it, a WebSocket gets OpenEnv's
+    /// CAPACITY_REACHED error and an HTTP reset gets 503.
+    #[arg(long, default_value_t = 1024)]
+    pub max_sessions: usize,
+    /// Seconds a session may stay idle before it is closed.
+    #[arg(long, default_value_t = 300.0)]
+    pub session_timeout: f64,
+    /// Largest WebSocket message or HTTP body read, in bytes.
+    #[arg(long, default_value_t = 1 << 20)]
+    pub max_message_bytes: usize,
+}
+
+impl EnvServerArgs {
+    fn config(&self) -> anyhow::Result<EnvServerConfig> {
+        if !(1..=1_000_000).contains(&self.max_sessions) {
+            return Err(usage(format!("--max-sessions: expected 1 to 1000000, got {}", self.max_sessions)));
+        }
+        if !(self.session_timeout.is_finite() && (0.1..=86_400.0).contains(&self.session_timeout)) {
+            return Err(usage(format!(
+                "--session-timeout: expected 0.1 to 86400 seconds, got {}",
+                self.session_timeout
+            )));
+        }
+        let min = crate::envserver::MIN_MESSAGE_BYTES;
+        if !(min..=64 << 20).contains(&self.max_message_bytes) {
+            return Err(usage(format!(
+                "--max-message-bytes: expected {min} to 67108864, got {}",
+                self.max_message_bytes
+            )));
+        }
+        Ok(EnvServerConfig {
+            max_sessions: self.max_sessions,
+            session_timeout: Duration::from_secs_f64(self.session_timeout),
+            max_message_bytes: self.max_message_bytes,
+        })
+    }
+
+    pub fn run(self) -> anyhow::Result<ExitCode> {
+        let config = self.config()?;
+        let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+        let state = Arc::new(EnvServerState::new(config));
+        let served = runtime.block_on(async {
+            let listener = tokio::net::TcpListener::bind((self.host.as_str(), self.port)).await?;
+            let addr = listener.local_addr()?;
+            let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
+            crate::redact::term::out(&format!("listening on http://{host}:{}\n", addr.port()));
+            crate::envserver::run(listener, state.clone()).await
+        });
+        served.map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;
+        let s = &state.stats;
+        eline!(
+            "served {} sessions ({} refused at capacity, {} expired idle): {} steps, {} episodes finished, {} errors",
+            s.sessions.load(Relaxed),
+            s.refused.load(Relaxed),
+            s.expired.load(Relaxed),
+            s.steps.load(Relaxed),
+            s.episodes_done.load(Relaxed),
+            s.errors.load(Relaxed)
+        );
+        Ok(ExitCode::SUCCESS)
+    }
+}

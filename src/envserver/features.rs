@@ -1,0 +1,130 @@
+//! The observation as a fixed-length numeric vector, for policies that do
+//! not read text (a classic RL agent, a small network). Every scenario and
+//! tier gives the same length and the same slot meanings; a slot a scenario
+//! does not use holds 0 and its `present` flag says so. Units are SI (m,
+//! m/s, m/s^2, s), unscaled: normalise in the agent.
+//!
+//! It is computed from the observation rounded to the scene text's
+//! precision, so it carries exactly what the text does, nothing the
+//! disposition could leak through below the printed digits.
+//!
+//! Road-user slots follow the scene's order (`Scene::tracks`): on
+//! `yield_standoff` the other car then the car behind it (metres from the
+//! ego lane's near edge), on `pedestrian_feint` the pedestrian (lateral
+//! metres from the near kerb; the second slot is absent), on
+//! `contested_merge` the lane car then the car behind it (centre to centre
+//! relative to the ego, positive ahead). Each slot holds the current
+//! sample and the four past ones (t-2.0 .. t-0.5 s, oldest first).
+
+use crate::action::Maneuver;
+use crate::observation::{HISTORY_LEN, Observation};
+use crate::scenario::{ScenarioKind, Tier};
+
+/// Road-user slots in the vector (the most any scene has).
+const TRACK_SLOTS: usize = 2;
+
+/// Collects (name, value) pairs in layout order; the names and the values
+/// come from the same code, so the published layout cannot drift.
+/// Names are only built when asked for (per step only the values are).
+struct Layout {
+    names: Option<Vec<String>>,
+    values: Vec<f64>,
+}
+
+impl Layout {
+    fn put(&mut self, name: impl std::fmt::Display, value: f64) {
+        if let Some(names) = self.names.as_mut() {
+            names.push(name.to_string());
+        }
+        self.values.push(value);
+    }
+
+    fn flag(&mut self, name: impl std::fmt::Display, on: bool) {
+        self.put(name, if on { 1.0 } else { 0.0 });
+    }
+}
+
+fn layout(o: &Observation, tier: Tier, with_names: bool) -> Layout {
+    let mut f = Layout { names: with_names.then(|| Vec::with_capacity(64)), values: Vec::with_capacity(64) };
+    let kind = o.scenario();
+    for k in ScenarioKind::ALL {
+        f.flag(format_args!("scenario.{}", k.name()), k == kind);
+    }
+    for t in Tier::ALL {
+        f.flag(format_args!("tier.{}", t.number()), t == tier);
+    }
+    f.put("turn", o.turn as f64);
+    f.put("turn_budget", o.turn_budget as f64);
+    f.put("turns_left", o.turns_left() as f64);
+    f.put("time_s", o.time_s);
+    f.put("ego.speed_mps", o.ego.speed_mps);
+    f.put("ego.accel_mps2", o.ego.accel_mps2);
+    f.put("ego.to_goal_m", o.ego.to_goal_m);
+    f.put("ego.speed_limit_mps", o.ego.speed_limit_mps);
+    let place = o.scene.place();
+    f.put("ego.to_conflict_m", place[0]);
+    f.put("ego.ramp_left_m", place.get(1).copied().unwrap_or(0.0));
+    let tracks = o.scene.tracks();
+    for slot in 0..TRACK_SLOTS {
+        let track = tracks.get(slot);
+        f.flag(format_args!("road_user{slot}.present"), track.is_some());
+        let now = track.map(|t| t.now);
+        f.put(format_args!("road_user{slot}.position_m"), now.map_or(0.0, |s| s.position_m));
+        f.put(format_args!("road_user{slot}.velocity_mps"), now.map_or(0.0, |s| s.velocity_mps));
+        for k in 0..HISTORY_LEN {
+            let ago = (HISTORY_LEN - k) as f64 * crate::observation::HISTORY_SPACING_S;
+            let s = track.map(|t| t.past[k]);
+            f.put(format_args!("road_user{slot}.position_m@-{ago:.1}s"), s.map_or(0.0, |s| s.position_m));
+            f.put(format_args!("road_user{slot}.velocity_mps@-{ago:.1}s"), s.map_or(0.0, |s| s.velocity_mps));
+        }
+    }
+    let last = o.last_action;
+    f.flag("last_action.present", last.is_some());
+    for m in Maneuver::ALL {
+        f.flag(format_args!("last_action.{}", m.name()), last.is_some_and(|a| a.maneuver == m));
+    }
+    f.put("last_action.strength", last.map_or(0.0, |a| a.acceleration.abs()));
+    let noise = o.reading_noise;
+    f.flag("reading_noise.present", noise.is_some());
+    f.put("reading_noise.position_sd_m", noise.map_or(0.0, |n| n.position_sd_m));
+    f.put("reading_noise.speed_sd_mps", noise.map_or(0.0, |n| n.speed_sd_mps));
+    f
+}
+
+/// The feature vector of an observation (pass the rounded observation).
+pub(crate) fn features(o: &Observation, tier: Tier) -> Vec<f64> {
+    layout(o, tier, false).values
+}
+
+/// The name of every slot, in order (the same for every scenario).
+pub(crate) fn feature_names() -> Vec<String> {
+    let set = crate::scenario::ScenarioSet::default();
+    let episode = crate::episode::Episode::new(set.get(ScenarioKind::YieldStandoff), Tier::T1, 0);
+    layout(episode.observation(), Tier::T1, true).names.unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::episode::Episode;
+    use crate::scenario::ScenarioSet;
+
+    #[test]
+    fn every_scenario_and_tier_gives_the_same_layout() {
+        let set = ScenarioSet::default();
+        let names = feature_names();
+        for kind in ScenarioKind::ALL {
+            for tier in Tier::ALL {
+                let mut e = Episode::new(set.get(kind), tier, 3);
+                e.step(crate::action::Action::new(Maneuver::Yield, 0.3));
+                let l = layout(&e.observation().rounded(), tier, true);
+                assert_eq!(l.names.as_ref(), Some(&names), "{kind} {tier}");
+                assert_eq!(l.values, features(&e.observation().rounded(), tier));
+                assert!(l.values.iter().all(|v| v.is_finite()));
+                assert_eq!(l.values[names.iter().position(|n| n == "last_action.yield").unwrap()], 1.0);
+            }
+        }
+        let unique: std::collections::HashSet<&String> = names.iter().collect();
+        assert_eq!(unique.len(), names.len());
+    }
+}

@@ -1,0 +1,619 @@
+//! One environment session: the episode a client is playing, driven through
+//! the same [`Episode`] that `eval` and `baselines` drive, and every value
+//! the client can see. No I/O here: the HTTP and WebSocket front ends in
+//! `envserver` only move these values in and out.
+//!
+//! What a client can see before `done` is built from the public
+//! observation rounded to the precision the scene text prints (the same
+//! information the model gets in `eval`), the turn counters, and the
+//! parser's verdict on the client's own action. The disposition, the
+//! evidence turn and the grades appear only in the terminal step's
+//! metadata (and in the state once the episode is over).
+
+use super::features::features;
+use crate::action::{Action, ActionParseError, ParsedAction, parse_action};
+use crate::episode::{Episode, EpisodeRecord};
+use crate::eval::prompt::SYSTEM_PROMPT;
+use crate::observation::{Observation, render_scene};
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use schemars::JsonSchema;
+use serde::Serialize;
+use serde_json::{Map, Value, json};
+
+/// The scenario a reset without `scenario` plays.
+pub(crate) const DEFAULT_SCENARIO: ScenarioKind = ScenarioKind::YieldStandoff;
+/// The tier a reset without `tier` plays.
+pub(crate) const DEFAULT_TIER: Tier = Tier::T1;
+/// Seeds the server draws for a reset without one stay below 2^53, so that
+/// a client reading JSON numbers as doubles (JavaScript, some Python
+/// tooling) keeps them exact. A client may pass any seed up to 2^64 - 1.
+pub(crate) const DRAWN_SEED_LIMIT: u64 = 1 << 53;
+/// Longest `episode_id` a client may choose (OpenEnv's own limit).
+pub(crate) const MAX_EPISODE_ID_LEN: usize = 255;
+/// Longest reply read from an action, as `eval --max-reply-bytes`'s
+/// default: a longer one is a parse error (a firm stop), as in `eval`.
+pub(crate) const MAX_REPLY_BYTES: usize = crate::llm::DEFAULT_MAX_REPLY_BYTES;
+
+/// One problem with a message's fields, shaped like the validation errors
+/// OpenEnv's own server returns (pydantic's): where, what, and a kind.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(crate) struct FieldError {
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    pub loc: Vec<String>,
+    pub msg: String,
+}
+
+impl FieldError {
+    fn new(kind: &'static str, field: &str, msg: impl Into<String>) -> FieldError {
+        FieldError { kind, loc: vec!["data".to_string(), field.to_string()], msg: msg.into() }
+    }
+}
+
+/// Why a session refused a message. The session itself is unchanged.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(crate) enum SessionError {
+    #[error("invalid message: {}", summary(.0))]
+    Invalid(Vec<FieldError>),
+    #[error("no episode yet: send reset first")]
+    NotReset,
+    #[error("episode {0} is over (done): send reset to start another")]
+    EpisodeOver(String),
+}
+
+fn summary(errors: &[FieldError]) -> String {
+    errors.iter().map(|e| format!("{}: {}", e.loc.join("."), e.msg)).collect::<Vec<_>>().join("; ")
+}
+
+/// Which forms of the observation a session's observations carry. Every
+/// form holds the same information; a client takes the one it reads (an
+/// LLM harness that forwards the whole observation to the model wants
+/// `text` alone; a network wants `features`), and the messages shrink.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum View {
+    /// `instructions`, `scene`, `public` and `features`.
+    Full,
+    /// `instructions` and `scene`.
+    Text,
+    /// `public`.
+    Public,
+    /// `features`.
+    Features,
+}
+
+impl View {
+    pub const NAMES: [&str; 4] = ["full", "text", "public", "features"];
+
+    fn parse(s: &str) -> Option<View> {
+        Some(match s {
+            "full" => View::Full,
+            "text" => View::Text,
+            "public" => View::Public,
+            "features" => View::Features,
+            _ => return None,
+        })
+    }
+
+    fn text(self) -> bool {
+        matches!(self, View::Full | View::Text)
+    }
+
+    fn public(self) -> bool {
+        matches!(self, View::Full | View::Public)
+    }
+
+    fn features(self) -> bool {
+        matches!(self, View::Full | View::Features)
+    }
+}
+
+/// What a reset asks for, validated.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ResetRequest {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub view: View,
+    /// None: the server draws one (and returns it).
+    pub seed: Option<u64>,
+    pub episode_id: Option<String>,
+}
+
+impl ResetRequest {
+    /// Read a reset's `data`. Unknown fields are refused (a misspelt
+    /// `senario` would otherwise silently play the default).
+    pub fn from_fields(data: &Map<String, Value>) -> Result<ResetRequest, SessionError> {
+        let mut errors = Vec::new();
+        let mut request = ResetRequest {
+            scenario: DEFAULT_SCENARIO,
+            tier: DEFAULT_TIER,
+            view: View::Full,
+            seed: None,
+            episode_id: None,
+        };
+        for (key, value) in data {
+            if value.is_null() {
+                continue;
+            }
+            match key.as_str() {
+                "scenario" => match value.as_str().map(str::parse::<ScenarioKind>) {
+                    Some(Ok(k)) => request.scenario = k,
+                    _ => errors.push(FieldError::new(
+                        "enum",
+                        key,
+                        format!("expected one of {}, got {value}", scenario_names().join(", ")),
+                    )),
+                },
+                "tier" => match tier_of(value) {
+                    Some(t) => request.tier = t,
+                    None => errors.push(FieldError::new("enum", key, format!("expected 1, 2 or 3, got {value}"))),
+                },
+                "seed" => match value.as_u64() {
+                    Some(s) => request.seed = Some(s),
+                    None => errors.push(FieldError::new(
+                        "int_type",
+                        key,
+                        format!("expected a whole number from 0 to {}, got {value}", u64::MAX),
+                    )),
+                },
+                "view" => match value.as_str().and_then(View::parse) {
+                    Some(v) => request.view = v,
+                    None => errors.push(FieldError::new(
+                        "enum",
+                        key,
+                        format!("expected one of {}, got {value}", View::NAMES.join(", ")),
+                    )),
+                },
+                "episode_id" => match value.as_str() {
+                    Some(id) if !id.is_empty() && id.len() <= MAX_EPISODE_ID_LEN => {
+                        request.episode_id = Some(id.to_string())
+                    }
+                    _ => errors.push(FieldError::new(
+                        "string_type",
+                        key,
+                        format!("expected a string of 1 to {MAX_EPISODE_ID_LEN} bytes"),
+                    )),
+                },
+                _ => errors.push(FieldError::new(
+                    "extra_forbidden",
+                    key,
+                    "unknown reset field (expected scenario, tier, seed, view, episode_id)",
+                )),
+            }
+        }
+        if errors.is_empty() { Ok(request) } else { Err(SessionError::Invalid(errors)) }
+    }
+}
+
+fn scenario_names() -> Vec<&'static str> {
+    ScenarioKind::ALL.iter().map(|k| k.name()).collect()
+}
+
+/// A tier as a number (1) or a string ("1", "t1").
+fn tier_of(value: &Value) -> Option<Tier> {
+    match value {
+        Value::Number(n) => n.as_u64().and_then(|t| t.to_string().parse().ok()),
+        Value::String(s) => s.trim().trim_start_matches(['t', 'T']).parse().ok(),
+        _ => None,
+    }
+}
+
+/// Read a step's action: `{"reply": "<the model's whole reply>"}`, or the
+/// benchmark's action object itself (`maneuver`, `acceleration`,
+/// `steering`, `reasoning`). Either way the protective parser `eval` uses
+/// reads it, so a malformed answer is a parse error and a firm stop, as in
+/// `eval`. `metadata` (OpenEnv's) is ignored. Only a payload of the wrong
+/// shape is refused (the session then stays where it was).
+pub(crate) fn read_action(data: &Value) -> Result<ParsedAction, SessionError> {
+    let Some(fields) = data.as_object() else {
+        return Err(SessionError::Invalid(vec![FieldError {
+            kind: "dict_type",
+            loc: vec!["data".to_string()],
+            msg: "expected an object: {\"reply\": text} or the action's fields".to_string(),
+        }]));
+    };
+    let mut rest: Map<String, Value> =
+        fields.iter().filter(|(k, _)| *k != "metadata").map(|(k, v)| (k.clone(), v.clone())).collect();
+    let text = match rest.remove("reply") {
+        Some(Value::String(reply)) => {
+            if let Some(extra) = rest.keys().next() {
+                return Err(SessionError::Invalid(vec![FieldError::new(
+                    "extra_forbidden",
+                    extra,
+                    "send either reply or the action's own fields, not both",
+                )]));
+            }
+            reply
+        }
+        Some(other) => {
+            return Err(SessionError::Invalid(vec![FieldError::new(
+                "string_type",
+                "reply",
+                format!("expected the reply as a string, got {other}"),
+            )]));
+        }
+        None => Value::Object(rest).to_string(),
+    };
+    if text.len() > MAX_REPLY_BYTES {
+        return Ok(ParsedAction {
+            action: Action::CONSERVATIVE,
+            reasoning: None,
+            errors: vec![ActionParseError::Oversized { limit: MAX_REPLY_BYTES }],
+        });
+    }
+    Ok(parse_action(&text))
+}
+
+/// The observation a client receives. Its JSON schema is part of `/schema`.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub(crate) struct EnvObservation {
+    /// The benchmark's instructions: the system prompt `eval` sends, on
+    /// the first observation only (absent afterwards). A harness that adds
+    /// no system prompt of its own forwards it with the first scene.
+    /// Views `full` and `text`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instructions: Option<String>,
+    /// This turn's scene text, exactly the user message `eval` sends (the
+    /// prompt `eval` renders is `instructions` as the system message, then
+    /// one scene per turn). Views `full` and `text`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scene: Option<String>,
+    /// The public observation as structured values, rounded to the
+    /// precision the scene text prints (the same information). Views
+    /// `full` and `public`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub public: Option<Observation>,
+    /// A fixed-length numeric vector of the same information, in SI units
+    /// (layout: `feature_names` in `/metadata`). Views `full` and
+    /// `features`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub features: Option<Vec<f64>>,
+    /// 1-based index of the decision this observation asks for.
+    pub turn: u32,
+    pub turn_budget: u32,
+    /// Decisions left, this one included (0 once the episode is over).
+    pub turns_left: u32,
+    pub scenario: String,
+    pub tier: u8,
+    pub seed: u64,
+    pub episode_id: String,
+    /// What the protective parser found wrong in the last action (each
+    /// problem made it a firm stop, as in `eval`); empty when it was clean
+    /// or on reset.
+    pub parse_errors: Vec<String>,
+    /// Empty until the episode is over; then the grades (see the step
+    /// response's `metadata`).
+    pub metadata: Map<String, Value>,
+}
+
+/// One reply to a reset or a step, in OpenEnv's shape.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct StepReply {
+    pub observation: EnvObservation,
+    /// Null on reset; 0 on every step but the last; the episode reward on
+    /// the step that ends the episode.
+    pub reward: Option<f64>,
+    pub done: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub metadata: Option<Map<String, Value>>,
+}
+
+/// The state a client can read at any time. Nothing hidden before `done`.
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+pub(crate) struct EnvState {
+    /// The current episode's id (null before the first reset).
+    pub episode_id: Option<String>,
+    /// Steps taken in the current episode.
+    pub step_count: u32,
+    pub scenario: Option<String>,
+    pub tier: Option<u8>,
+    pub seed: Option<u64>,
+    /// 1-based index of the next decision.
+    pub turn: Option<u32>,
+    pub turn_budget: Option<u32>,
+    pub done: bool,
+    /// Steps whose action the protective parser could not read (each was
+    /// a firm stop).
+    pub parse_errors: u32,
+    /// success, collision or timeout once the episode is over.
+    pub outcome: Option<String>,
+    /// The other road user's hidden disposition, once the episode is over.
+    pub disposition: Option<String>,
+}
+
+struct Live {
+    episode: Episode,
+    view: View,
+    episode_id: String,
+    steps: u32,
+    parse_errors: u32,
+    /// The grades, once the episode is over.
+    graded: Option<Map<String, Value>>,
+}
+
+/// A session: at most one episode at a time.
+#[derive(Default)]
+pub(crate) struct Session {
+    live: Option<Live>,
+}
+
+impl Session {
+    /// Start the episode `request` names (replacing any current one).
+    /// `draw` supplies a seed when the request has none; `new_id` an
+    /// episode id.
+    pub fn reset(
+        &mut self,
+        scenarios: &ScenarioSet,
+        request: ResetRequest,
+        draw: impl FnOnce() -> u64,
+        new_id: impl FnOnce() -> String,
+    ) -> StepReply {
+        let seed = request.seed.unwrap_or_else(draw);
+        let episode = Episode::new(scenarios.get(request.scenario), request.tier, seed);
+        self.start(episode, request.view, request.episode_id.unwrap_or_else(new_id))
+    }
+
+    fn start(&mut self, episode: Episode, view: View, episode_id: String) -> StepReply {
+        let live = Live { episode, view, episode_id, steps: 0, parse_errors: 0, graded: None };
+        let reply =
+            StepReply { observation: observe(&live, true, Vec::new()), reward: None, done: false, metadata: None };
+        self.live = Some(live);
+        reply
+    }
+
+    /// Apply one action payload.
+    pub fn step(&mut self, data: &Value) -> Result<StepReply, SessionError> {
+        let live = self.live.as_mut().ok_or(SessionError::NotReset)?;
+        if live.graded.is_some() {
+            return Err(SessionError::EpisodeOver(live.episode_id.clone()));
+        }
+        let parsed = read_action(data)?;
+        if !parsed.is_clean() {
+            live.parse_errors += 1;
+        }
+        live.steps += 1;
+        let done = live.episode.step(parsed.action).is_some();
+        let mut reward = Some(0.0);
+        if done {
+            let record = live.episode.record();
+            reward = Some(record.grades.reward);
+            live.graded = Some(grades(&record, live.parse_errors));
+        }
+        let errors = parsed.errors.iter().map(ToString::to_string).collect();
+        let observation = observe(live, false, errors);
+        Ok(StepReply { observation, reward, done, metadata: live.graded.clone() })
+    }
+
+    pub fn state(&self) -> EnvState {
+        let Some(live) = self.live.as_ref() else {
+            return EnvState {
+                episode_id: None,
+                step_count: 0,
+                scenario: None,
+                tier: None,
+                seed: None,
+                turn: None,
+                turn_budget: None,
+                done: false,
+                parse_errors: 0,
+                outcome: None,
+                disposition: None,
+            };
+        };
+        let spec = live.episode.spec();
+        let o = live.episode.observation();
+        let over = live.graded.is_some();
+        EnvState {
+            episode_id: Some(live.episode_id.clone()),
+            step_count: live.steps,
+            scenario: Some(spec.scenario.name().to_string()),
+            tier: Some(spec.tier.number()),
+            seed: Some(spec.seed),
+            turn: Some(if over { live.steps } else { o.turn }),
+            turn_budget: Some(o.turn_budget),
+            done: over,
+            parse_errors: live.parse_errors,
+            outcome: live.episode.outcome().map(|x| x.name().to_string()),
+            disposition: over.then(|| live.episode.disposition().name().to_string()),
+        }
+    }
+}
+
+/// What the client sees of the episode now.
+fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservation {
+    let o = live.episode.observation();
+    let spec = live.episode.spec();
+    let over = live.graded.is_some();
+    let view = live.view;
+    let public = (view.public() || view.features()).then(|| o.rounded());
+    EnvObservation {
+        instructions: (first && view.text()).then(|| SYSTEM_PROMPT.to_string()),
+        scene: view.text().then(|| render_scene(o)),
+        features: public.as_ref().filter(|_| view.features()).map(|p| features(p, spec.tier)),
+        public: public.filter(|_| view.public()),
+        turn: o.turn,
+        turn_budget: o.turn_budget,
+        turns_left: if over { 0 } else { o.turns_left() },
+        scenario: spec.scenario.name().to_string(),
+        tier: spec.tier.number(),
+        seed: spec.seed,
+        episode_id: live.episode_id.clone(),
+        parse_errors,
+        metadata: live.graded.clone().unwrap_or_default(),
+    }
+}
+
+/// The terminal metadata: the outcome, the grades, the evidence timing and
+/// now the disposition.
+fn grades(record: &EpisodeRecord, parse_errors: u32) -> Map<String, Value> {
+    let t = &record.timing;
+    let g = &record.grades;
+    let value = json!({
+        "outcome": record.outcome.name(),
+        "reward": g.reward,
+        "decision_correctness": g.decision_correctness,
+        "disposition": record.disposition.name(),
+        "evidence_turn": t.evidence_turn,
+        "commitment_turn": t.commitment_turn,
+        "choice": t.choice,
+        "first_in": t.first_in,
+        "guessed": t.guessed(),
+        "decisions": g.diagnostics.decisions,
+        "parse_errors": parse_errors,
+        "efficiency": g.diagnostics.efficiency,
+        "comfort": g.diagnostics.comfort,
+        "min_gap_m": g.diagnostics.min_gap_m,
+        "hard_brakes": g.diagnostics.hard_brakes,
+        "right_of_way_violations": g.diagnostics.right_of_way_violations,
+    });
+    match value {
+        Value::Object(map) => map,
+        _ => unreachable!("a json! object literal is an object"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::action::Maneuver;
+
+    fn data(v: Value) -> Map<String, Value> {
+        v.as_object().cloned().unwrap()
+    }
+
+    #[test]
+    fn reset_fields_have_defaults_and_refuse_unknown_ones() {
+        let r = ResetRequest::from_fields(&Map::new()).unwrap();
+        assert_eq!((r.scenario, r.tier, r.seed, r.episode_id), (DEFAULT_SCENARIO, DEFAULT_TIER, None, None));
+        let r = ResetRequest::from_fields(&data(
+            json!({"scenario": "contested_merge", "tier": "t3", "seed": 7, "view": "features"}),
+        ))
+        .unwrap();
+        assert_eq!(
+            (r.scenario, r.tier, r.seed, r.view),
+            (ScenarioKind::ContestedMerge, Tier::T3, Some(7), View::Features)
+        );
+        let Err(SessionError::Invalid(errors)) =
+            ResetRequest::from_fields(&data(json!({"senario": "x", "tier": 4, "seed": -1, "episode_id": ""})))
+        else {
+            panic!("refused")
+        };
+        let fields: Vec<&str> = errors.iter().map(|e| e.loc[1].as_str()).collect();
+        assert_eq!(fields, ["episode_id", "seed", "senario", "tier"]);
+        for bad in [json!({"seed": 1.5}), json!({"seed": "3"}), json!({"scenario": 3}), json!({"view": "all"})] {
+            assert!(ResetRequest::from_fields(&data(bad)).is_err());
+        }
+    }
+
+    #[test]
+    fn actions_are_read_by_evals_parser_whatever_their_form() {
+        let direct = read_action(&json!({"maneuver": "yield", "acceleration": 0.4, "metadata": {"k": 1}})).unwrap();
+        assert_eq!(direct.action, Action::new(Maneuver::Yield, 0.4));
+        assert!(direct.is_clean());
+        let reply = "I will wait.\n```json\n{\"maneuver\": \"yield\", \"acceleration\": 0.4}\n```";
+        assert_eq!(read_action(&json!({ "reply": reply })).unwrap(), parse_action(reply));
+        let bad = read_action(&json!({"maneuver": "fly", "acceleration": 0.4})).unwrap();
+        assert_eq!(bad.action, Action::CONSERVATIVE);
+        assert!(!bad.is_clean());
+        let huge = read_action(&json!({ "reply": "x".repeat(MAX_REPLY_BYTES + 1) })).unwrap();
+        assert_eq!(huge.errors, [ActionParseError::Oversized { limit: MAX_REPLY_BYTES }]);
+        for wrong in [json!("proceed"), json!({"reply": 3}), json!({"reply": "{}", "maneuver": "stop"})] {
+            assert!(matches!(read_action(&wrong), Err(SessionError::Invalid(_))), "{wrong}");
+        }
+    }
+
+    #[test]
+    fn a_session_plays_the_episode_eval_plays_and_grades_it_at_the_end() {
+        let set = ScenarioSet::default();
+        let mut session = Session::default();
+        assert_eq!(session.step(&json!({"reply": "{}"})).unwrap_err(), SessionError::NotReset);
+        let request = ResetRequest {
+            scenario: ScenarioKind::PedestrianFeint,
+            tier: Tier::T2,
+            view: View::Full,
+            seed: Some(11),
+            episode_id: None,
+        };
+        let first = session.reset(&set, request, || unreachable!(), || "ep".to_string());
+        let mut episode = Episode::new(set.get(ScenarioKind::PedestrianFeint), Tier::T2, 11);
+        assert_eq!(first.observation.scene, Some(render_scene(episode.observation())));
+        assert_eq!(first.observation.instructions.as_deref(), Some(SYSTEM_PROMPT));
+        assert_eq!(first.reward, None);
+        let mut last = first;
+        let mut steps = 0;
+        while !last.done {
+            let action = Action::new(Maneuver::Proceed, 1.0);
+            episode.step(action);
+            last = session.step(&serde_json::to_value(action).unwrap()).unwrap();
+            steps += 1;
+            if !last.done {
+                assert_eq!(last.reward, Some(0.0));
+                assert_eq!(last.observation.scene, Some(render_scene(episode.observation())));
+                assert!(last.observation.instructions.is_none() && last.observation.metadata.is_empty());
+                assert_eq!(session.state().disposition, None);
+            }
+        }
+        let record = episode.finish();
+        assert_eq!(last.reward, Some(record.grades.reward));
+        let meta = last.metadata.unwrap();
+        assert_eq!(meta["outcome"], record.outcome.name());
+        assert_eq!(meta["disposition"], record.disposition.name());
+        assert_eq!(session.state().step_count, steps);
+        assert_eq!(session.state().disposition.as_deref(), Some(record.disposition.name()));
+        assert_eq!(session.step(&json!({"reply": "{}"})).unwrap_err(), SessionError::EpisodeOver("ep".to_string()));
+    }
+
+    /// Everything a client can read (the reset and step replies, the
+    /// state) is byte-identical under both dispositions of a seed until the
+    /// evidence turn, for every scenario and tier, driven by the expert
+    /// (which reads what the client reads) and by a blind schedule.
+    #[test]
+    fn nothing_a_client_sees_depends_on_the_disposition_before_the_evidence() {
+        use crate::policy::{Policy, PolicyKind};
+        let set = ScenarioSet::default();
+        let mut compared = 0;
+        for kind in ScenarioKind::ALL {
+            for tier in Tier::ALL {
+                for seed in 0..25u64 {
+                    for expert in [true, false] {
+                        let [a, b] = kind.dispositions();
+                        let mut sessions = [a, b].map(|d| {
+                            let mut s = Session::default();
+                            let first = s.start(
+                                Episode::with_disposition(set.get(kind), tier, seed, d),
+                                View::Full,
+                                "ep".into(),
+                            );
+                            (s, first)
+                        });
+                        // The evidence turn of the first disposition's play.
+                        let mut policy: Box<dyn Policy> = PolicyKind::Expert.build();
+                        let mut turn = 1;
+                        loop {
+                            let [(sa, ra), (sb, rb)] = &sessions;
+                            let evidence = sa.live.as_ref().unwrap().episode.timing().evidence_turn;
+                            if ra.done || rb.done || evidence.is_some_and(|e| turn >= e) {
+                                break;
+                            }
+                            let text = |r: &StepReply| serde_json::to_string(r).unwrap();
+                            assert_eq!(text(ra), text(rb), "{kind} t{tier} seed {seed} turn {turn}");
+                            let state = |s: &Session| serde_json::to_string(&s.state()).unwrap();
+                            assert_eq!(state(sa), state(sb));
+                            compared += 1;
+                            let action = if expert {
+                                policy.act(ra.observation.public.as_ref().unwrap())
+                            } else {
+                                Action::new(crate::action::Maneuver::Proceed, if turn % 3 == 0 { 0.0 } else { 0.7 })
+                            };
+                            let payload = serde_json::to_value(action).unwrap();
+                            for (s, r) in sessions.iter_mut() {
+                                *r = s.step(&payload).unwrap();
+                            }
+                            turn += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 1500, "{compared}");
+    }
+}
