@@ -27,6 +27,8 @@
 //! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;
 //! - `envserver`: the benchmark as an OpenEnv environment (HTTP and
 //!   WebSocket) for trainers and other harnesses;
+//! - `play`: a person drives the episodes in the terminal (`eval`
+//!   against an in-process endpoint whose answers are the person's);
 //! - [`report`]: leaderboards, paired comparisons, plots, report.html;
 //! - [`redact`]: the one place secrets are scrubbed from everything the
 //!   process writes; [`atomic`]: whole-file writes (temp file + rename);
@@ -47,6 +49,7 @@ pub(crate) mod hash;
 pub mod llm;
 pub mod observation;
 pub(crate) mod par;
+pub(crate) mod play;
 pub mod policy;
 pub mod redact;
 pub mod report;

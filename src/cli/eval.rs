@@ -240,6 +240,7 @@ impl EvalArgs {
             scenarios_hash: scenarios_hash(&scenario_set),
             endpoint: crate::redact::url_without_userinfo(&target.base_url),
             probe: self.probe,
+            human: None,
         };
         let run_name = self.run_name(&config)?;
         let retry = RetryPolicy {
@@ -272,6 +273,7 @@ impl EvalArgs {
             pricing,
             allow_truncation: self.allow_truncation,
             trajectories: !self.no_trajectories,
+            interrupt: None,
         })
     }
 
@@ -594,7 +596,7 @@ fn api_key(var: Option<&str>) -> anyhow::Result<Option<String>> {
 }
 
 /// Hash of the scenario parameters in force (built-ins or overrides).
-fn scenarios_hash(set: &ScenarioSet) -> String {
+pub(crate) fn scenarios_hash(set: &ScenarioSet) -> String {
     let configs: Vec<Value> = ScenarioKind::ALL
         .iter()
         .map(|k| serde_json::to_value(set.get(*k)).expect("scenario config serialises"))

@@ -4,6 +4,7 @@
 mod baselines;
 mod env_server;
 mod eval;
+mod play;
 mod report;
 mod serve;
 mod validate;
@@ -64,6 +65,8 @@ pub enum Command {
     Serve(serve::ServeArgs),
     /// Serve the benchmark as an OpenEnv environment (HTTP and WebSocket) for trainers and other harnesses.
     EnvServer(env_server::EnvServerArgs),
+    /// Drive the benchmark's episodes yourself in the terminal (a human baseline row).
+    Play(play::PlayArgs),
     /// Leaderboards, paired comparisons, plots and an offline report.html from run directories.
     Report(report::ReportArgs),
 }
@@ -75,6 +78,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate(args) => args.run(),
         Command::Serve(args) => args.run(),
         Command::EnvServer(args) => args.run(),
+        Command::Play(args) => args.run(),
         Command::Report(args) => args.run(),
     }
 }

@@ -73,6 +73,18 @@ pub struct EvalOptions {
     pub allow_truncation: bool,
     /// Keep plan-view trajectories in each line (for plots).
     pub trajectories: bool,
+    /// A stop signal besides Ctrl-C (`negotiator play`'s quit key, when the
+    /// terminal is in raw mode and Ctrl-C is a key): notified once, it ends
+    /// the run as interrupted, episodes in flight abandoned.
+    pub interrupt: Option<Arc<tokio::sync::Notify>>,
+}
+
+/// Resolves when `interrupt` is notified (never without one).
+async fn interrupted(interrupt: &Option<Arc<tokio::sync::Notify>>) {
+    match interrupt {
+        Some(n) => n.notified().await,
+        None => std::future::pending().await,
+    }
 }
 
 impl EvalOptions {
@@ -244,11 +256,20 @@ pub async fn run(options: EvalOptions, reporter: &mut dyn Reporter) -> Result<Ru
     counters.priced.store(options.pricing.is_some(), Relaxed);
     reporter.attach(counters.clone());
     let mut run = prepare(options, counters, reporter)?;
-    let drove = match preflight(&run).await {
-        Ok(()) => drive(&mut run, reporter).await,
-        Err(e) => {
+    let interrupt = run.ctx.options.interrupt.clone();
+    let first = tokio::select! {
+        r = preflight(&run) => Some(r),
+        _ = interrupted(&interrupt) => None,
+    };
+    let drove = match first {
+        Some(Ok(())) => drive(&mut run, reporter).await,
+        Some(Err(e)) => {
             reporter.event(&Event::Stopped { reason: StopReason::Refused });
             Drove { stop: Some(StopReason::Refused), fatal: Some(e), failure: None }
+        }
+        None => {
+            reporter.event(&Event::Stopped { reason: StopReason::Interrupted });
+            Drove { stop: Some(StopReason::Interrupted), fatal: None, failure: None }
         }
     };
     finalize(run, drove, reporter)
@@ -587,6 +608,7 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
     }
     let ctrl_c = tokio::signal::ctrl_c();
     tokio::pin!(ctrl_c);
+    let interrupt = ctx.options.interrupt.clone();
     loop {
         while set.len() < concurrency && driver.drove.stop.is_none() {
             let Some(key) = pending.next_key() else { break };
@@ -596,6 +618,11 @@ async fn drive(run: &mut Prepared, reporter: &mut dyn Reporter) -> Drove {
         let joined = tokio::select! {
             j = set.join_next() => j,
             _ = &mut ctrl_c => {
+                set.abort_all();
+                driver.stop(StopReason::Interrupted);
+                break;
+            }
+            _ = interrupted(&interrupt) => {
                 set.abort_all();
                 driver.stop(StopReason::Interrupted);
                 break;

@@ -348,6 +348,7 @@ mod tests {
             scenarios_hash: "s".into(),
             endpoint: String::new(),
             probe: Default::default(),
+            human: None,
         };
         let info = RunInfo {
             schema_version: crate::rundir::SCHEMA_VERSION,

@@ -167,6 +167,27 @@ pub struct RunConfig {
     /// are unchanged).
     #[serde(default, skip_serializing_if = "crate::belief::Probe::is_none")]
     pub probe: crate::belief::Probe,
+    /// `negotiator play`: a person at the terminal, and what they were
+    /// shown and allowed (each setting is its own experiment). Absent for
+    /// models (earlier runs' hashes are unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub human: Option<HumanSettings>,
+}
+
+/// How a person played (`negotiator play`), part of the run's identity:
+/// a real-time clock, a plan view or feedback after each episode make a
+/// different experiment from the model's (untimed, text only, no feedback).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HumanSettings {
+    /// Seconds per turn (`--turn-seconds`); absent: untimed, as a model is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_seconds: Option<f64>,
+    /// `text` (the scene text only, as the model) or `plan` (a plan view
+    /// drawn beside it: more than the model sees).
+    pub view: String,
+    /// Each episode's outcome and the other road user's intent were shown
+    /// right after it (`--feedback`).
+    pub feedback: bool,
 }
 
 impl RunConfig {
@@ -436,6 +457,7 @@ mod tests {
             scenarios_hash: "s".into(),
             endpoint: "http://127.0.0.1:1/v1".into(),
             probe: crate::belief::Probe::None,
+            human: None,
         }
     }
 

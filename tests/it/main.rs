@@ -6,6 +6,7 @@ mod cost;
 mod envserver;
 mod eval;
 mod faults;
+mod play;
 mod providers;
 mod report;
 mod run_v0;

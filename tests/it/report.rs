@@ -88,6 +88,7 @@ fn config(model: &str, temperature: Option<f64>) -> RunConfig {
         scenarios_hash: "s".into(),
         endpoint: String::new(),
         probe: Default::default(),
+        human: None,
     }
 }
 

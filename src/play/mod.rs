@@ -1,0 +1,394 @@
+//! `negotiator play`: a person drives the benchmark's episodes in the
+//! terminal and lands in a run directory like a model's.
+//!
+//! How: `eval` runs unchanged against an in-process chat endpoint
+//! ([`endpoint`]) whose answers come from the person, one episode at a
+//! time, with the model name `human:NAME`. The run directory, resume (an
+//! interrupted episode is replayed from its start), run.json, the summary
+//! and `report` are `eval`'s; the episode is the same `Episode`. This
+//! module only owns the person's side: the screen ([`screen`], ratatui on
+//! crossterm), the line mode for a standard input that is not a terminal,
+//! and the keys ([`input`]).
+//!
+//! Nothing hidden is shown: each turn's screen is the scene text the model
+//! receives (the instructions once, on the help screen), and an episode's
+//! end says "episode over" only. `--feedback` shows the outcome and the
+//! other road user's intent after each episode, `--view plan` adds a
+//! drawing, `--turn-seconds` makes turns real-time: each is recorded in the
+//! run's configuration ([`crate::rundir::HumanSettings`]) and makes its own
+//! leaderboard row. `--practice` plays seeds outside the benchmark's range
+//! with feedback, into a temporary directory that is removed afterwards.
+
+mod endpoint;
+mod input;
+mod screen;
+
+use crate::episode::{EpisodeSpec, Outcome, draw_disposition};
+use crate::eval::events::{Event, Reporter};
+use crate::eval::{EvalOptions, RunOutcome};
+use crate::rundir::Selection;
+use crate::rundir::record::EpisodeKey;
+use endpoint::{EndpointState, Prompt, ToScreen};
+use input::Draft;
+use screen::Screen;
+use std::io::{BufRead, Write};
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::time::{Duration, Instant};
+
+/// Seeds at or above this are never benchmark seeds (benchmark runs use
+/// small seeds from 0): `--practice` draws from above it.
+pub const PRACTICE_SEED_BASE: u64 = 1 << 40;
+
+/// A validated `play` invocation.
+#[derive(Debug)]
+pub struct PlayOptions {
+    /// `eval`'s options (model `human:NAME`, the human settings in the
+    /// config), except the endpoint, which `run` starts.
+    pub eval: EvalOptions,
+    pub name: String,
+    pub feedback: bool,
+    pub plan_view: bool,
+    pub turn_seconds: Option<f64>,
+    /// Standard input is not a terminal: read one action per line.
+    pub line_mode: bool,
+    /// A practice run: its directory is removed at the end.
+    pub practice: bool,
+}
+
+/// Forwards the run's events to the screen.
+struct ToScreenReporter(Sender<ToScreen>);
+
+impl Reporter for ToScreenReporter {
+    fn event(&mut self, event: &Event) {
+        let message = match event {
+            Event::Planned { selected, finished, .. } => ToScreen::Planned { selected: *selected, finished: *finished },
+            Event::EpisodeFinished { key, outcome, reward, .. } => {
+                ToScreen::EpisodeOver { key: *key, outcome: *outcome, reward: *reward }
+            }
+            Event::Finished { .. } => ToScreen::RunOver,
+            _ => return,
+        };
+        let _ = self.0.send(message);
+    }
+}
+
+/// What the other road user intended, in words (for feedback and the
+/// final summary).
+fn intent(key: &EpisodeKey) -> String {
+    let d = draw_disposition(EpisodeSpec { scenario: key.scenario, tier: key.tier, seed: key.seed });
+    let meant = if d.ego_should_go() { "would have let you go first" } else { "was going first" };
+    format!("the other road user was a {} ({meant})", d.name())
+}
+
+fn episode_over(key: &EpisodeKey, outcome: Outcome, reward: f64, feedback: bool) -> String {
+    if feedback {
+        format!("Episode over: {} (reward {reward:.2}); {}.", outcome.name(), intent(key))
+    } else {
+        "Episode over.".to_string()
+    }
+}
+
+/// Play the run: start the endpoint and `eval` on a runtime in the
+/// background, and the person's side on this thread. Returns `eval`'s
+/// outcome (the run directory is saved whatever happens).
+pub fn run(options: PlayOptions) -> anyhow::Result<RunOutcome> {
+    let (to_screen, from_run) = channel();
+    let interrupt = Arc::new(tokio::sync::Notify::new());
+    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let listener = runtime.block_on(tokio::net::TcpListener::bind(("127.0.0.1", 0)))?;
+    let port = listener.local_addr()?.port();
+    let state = Arc::new(EndpointState { screen: to_screen.clone(), turn_seconds: options.turn_seconds });
+    runtime.spawn(async move {
+        let _ = axum::serve(listener, endpoint::router(state)).await;
+    });
+    let PlayOptions { mut eval, name, feedback, plan_view, turn_seconds, line_mode, practice } = options;
+    eval.client.base_url = format!("http://127.0.0.1:{port}/v1");
+    eval.interrupt = Some(interrupt.clone());
+    let run_dir = eval.run_dir.clone();
+    let handle = {
+        let to_screen = to_screen.clone();
+        std::thread::spawn(move || {
+            let mut reporter = ToScreenReporter(to_screen.clone());
+            let outcome = runtime.block_on(crate::eval::run(eval, &mut reporter));
+            let _ = to_screen.send(ToScreen::RunOver);
+            outcome
+        })
+    };
+    drop(to_screen);
+    let side = Side { from_run, interrupt, feedback: feedback || practice, plan_view, turn_seconds, name };
+    let played = if line_mode { side.lines() } else { side.terminal() };
+    let outcome = handle.join().map_err(|_| anyhow::anyhow!("the run's thread panicked"))?;
+    played?;
+    let outcome = outcome?;
+    if practice {
+        let _ = std::fs::remove_dir_all(&run_dir);
+    }
+    Ok(outcome)
+}
+
+/// The person's side of the run.
+struct Side {
+    from_run: Receiver<ToScreen>,
+    interrupt: Arc<tokio::sync::Notify>,
+    feedback: bool,
+    plan_view: bool,
+    turn_seconds: Option<f64>,
+    name: String,
+}
+
+impl Side {
+    /// The plain line mode: each scene on standard output, one action per
+    /// line from standard input; end of input saves and quits.
+    fn lines(self) -> anyhow::Result<()> {
+        let stdin = std::io::stdin();
+        let mut input = stdin.lock().lines();
+        let mut out = std::io::stdout();
+        let mut draft = Draft::default();
+        let mut closed = false;
+        // An unanswered turn stays open after quitting: the run is stopped
+        // as interrupted, not failed by a dropped answer.
+        let mut unanswered = Vec::new();
+        for message in &self.from_run {
+            match message {
+                ToScreen::Prompt(Prompt { scene, answer, shown }) => {
+                    if closed {
+                        unanswered.push(answer);
+                        continue;
+                    }
+                    if let Some(shown) = shown {
+                        let _ = shown.send(());
+                    }
+                    writeln!(out, "\n{scene}")?;
+                    loop {
+                        write!(out, "> ")?;
+                        out.flush()?;
+                        let line = input.next().transpose()?;
+                        // End of input, or q: save and quit.
+                        let Some(line) = line.filter(|l| l.trim() != "q") else {
+                            closed = true;
+                            self.interrupt.notify_one();
+                            unanswered.push(answer);
+                            break;
+                        };
+                        match input::read_line(&line, &mut draft) {
+                            Some(reply) => {
+                                let _ = answer.send(reply);
+                                break;
+                            }
+                            None => writeln!(
+                                out,
+                                "not an answer: {:?} (p/n/y/s and a digit 0-9, or a JSON action)",
+                                line.trim()
+                            )?,
+                        }
+                    }
+                }
+                ToScreen::TimedOut { .. } | ToScreen::Planned { .. } => {}
+                ToScreen::EpisodeOver { key, outcome, reward } => {
+                    writeln!(out, "{}", episode_over(&key, outcome, reward, self.feedback))?;
+                }
+                ToScreen::RunOver => break,
+            }
+        }
+        Ok(())
+    }
+
+    /// The terminal interface.
+    fn terminal(self) -> anyhow::Result<()> {
+        use ratatui::crossterm::event::{self, Event as Term, KeyCode, KeyEventKind, KeyModifiers};
+        let mut terminal = ratatui::try_init()?;
+        let mut s = Screen {
+            name: self.name.clone(),
+            progress: String::new(),
+            help: true,
+            help_text: format!("{}\n\nKeys\n{}", crate::eval::prompt::SYSTEM_PROMPT, HELP_KEYS),
+            ..Screen::default()
+        };
+        let mut pending: Option<Prompt> = None;
+        let mut queued: std::collections::VecDeque<Prompt> = Default::default();
+        let (mut selected, mut played) = (0usize, 0usize);
+        let mut quitting = false;
+        let mut deadline: Option<Instant> = None;
+        // An unanswered turn stays open after quitting (see `lines`).
+        let mut unanswered = Vec::new();
+        let result = (|| -> anyhow::Result<()> {
+            loop {
+                // Messages from the run.
+                loop {
+                    match self.from_run.try_recv() {
+                        Ok(ToScreen::Prompt(p)) => queued.push_back(p),
+                        Ok(ToScreen::TimedOut { held }) => {
+                            pending = None;
+                            s.scene = None;
+                            s.flash = Some(format!("time ran out: sent {held}"));
+                        }
+                        Ok(ToScreen::Planned { selected: n, finished }) => {
+                            selected = n;
+                            played = finished;
+                        }
+                        Ok(ToScreen::EpisodeOver { key, outcome, reward }) => {
+                            played += 1;
+                            s.notice = Some(episode_over(&key, outcome, reward, self.feedback));
+                        }
+                        Ok(ToScreen::RunOver) | Err(std::sync::mpsc::TryRecvError::Disconnected) => return Ok(()),
+                        Err(std::sync::mpsc::TryRecvError::Empty) => break,
+                    }
+                }
+                if pending.is_none()
+                    && s.notice.is_none()
+                    && !quitting
+                    && let Some(mut p) = queued.pop_front()
+                {
+                    s.plan = if self.plan_view { crate::observation::parse_scene(&p.scene).ok() } else { None };
+                    s.scene = Some(p.scene.clone());
+                    s.scroll = 0;
+                    if let Some(shown) = p.shown.take() {
+                        let _ = shown.send(());
+                    }
+                    deadline = self.turn_seconds.map(|t| Instant::now() + Duration::from_secs_f64(t));
+                    pending = Some(p);
+                }
+                s.progress = if quitting {
+                    "saving...".to_string()
+                } else {
+                    format!("episode {} of {selected}", (played + 1).min(selected.max(1)))
+                };
+                s.clock = match (self.turn_seconds, deadline.filter(|_| pending.is_some())) {
+                    (Some(_), Some(d)) => {
+                        Some(format!("{:.0} s left", d.saturating_duration_since(Instant::now()).as_secs_f64().ceil()))
+                    }
+                    (Some(t), None) => Some(format!("{t} s per turn")),
+                    _ => None,
+                };
+                terminal.draw(|f| screen::draw(f, &s))?;
+                if !event::poll(Duration::from_millis(100))? {
+                    continue;
+                }
+                let Term::Key(key) = event::read()? else { continue };
+                if key.kind != KeyEventKind::Press {
+                    continue;
+                }
+                let ctrl_c = key.modifiers.contains(KeyModifiers::CONTROL) && key.code == KeyCode::Char('c');
+                if let Some(t) = s.typing.as_mut() {
+                    match key.code {
+                        KeyCode::Esc => s.typing = None,
+                        KeyCode::Backspace => {
+                            t.pop();
+                        }
+                        KeyCode::Enter => {
+                            let text = s.typing.take().unwrap_or_default();
+                            if let Some(p) = pending.take() {
+                                let _ = p.answer.send(text);
+                                s.flash = None;
+                            }
+                        }
+                        KeyCode::Char(c) if !ctrl_c => t.push(c),
+                        _ => {}
+                    }
+                    if !ctrl_c {
+                        continue;
+                    }
+                }
+                match key.code {
+                    KeyCode::Char('q') | KeyCode::Char(_) if ctrl_c || key.code == KeyCode::Char('q') => {
+                        quitting = true;
+                        unanswered.extend(pending.take());
+                        self.interrupt.notify_one();
+                    }
+                    KeyCode::Char('?') => {
+                        s.help = !s.help;
+                        s.scroll = 0;
+                    }
+                    KeyCode::Esc if s.help => s.help = false,
+                    KeyCode::Enter if s.help => s.help = false,
+                    KeyCode::Enter if s.notice.is_some() => {
+                        s.notice = None;
+                        s.scene = None;
+                    }
+                    KeyCode::Enter => {
+                        if let Some(p) = pending.take() {
+                            let _ = p.answer.send(s.draft.reply());
+                            s.scene = None;
+                            s.flash = None;
+                        }
+                    }
+                    KeyCode::Char('{') => s.typing = Some("{".to_string()),
+                    KeyCode::Up | KeyCode::Right => s.draft.adjust(0.1),
+                    KeyCode::Down | KeyCode::Left => s.draft.adjust(-0.1),
+                    KeyCode::PageDown => s.scroll = s.scroll.saturating_add(5),
+                    KeyCode::PageUp => s.scroll = s.scroll.saturating_sub(5),
+                    KeyCode::Char(c) => {
+                        if let Some(m) = input::maneuver_key(c) {
+                            s.draft.maneuver = m;
+                        } else if let Some(v) = input::strength_key(c) {
+                            s.draft.strength = v;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        })();
+        ratatui::restore();
+        result
+    }
+}
+
+const HELP_KEYS: &str = "p proceed, n nudge forward, y yield, s stop; 0-9 set the strength (0 = 0, 9 = 1), \
+arrow keys step it by 0.1; Enter sends the answer shown at the bottom. Type { to write a JSON action \
+instead (Enter sends it, Esc drops it). PgUp/PgDn scroll. ? shows or hides this help. q (or Ctrl-C) \
+saves and quits: the same command goes on with the next unplayed episode.";
+
+/// The end-of-run summary: each episode of the run directory this person
+/// played, its outcome and what the other road user intended.
+pub fn summary_lines(run_dir: &std::path::Path) -> Vec<String> {
+    let path = run_dir.join(crate::rundir::ROLLOUTS);
+    let Ok(text) = std::fs::read_to_string(&path) else { return Vec::new() };
+    let mut out = vec![format!(
+        "{:<18} {:>4} {:>6}  {:<9} {:>6}  the other road user",
+        "scenario", "tier", "seed", "outcome", "reward"
+    )];
+    for line in text.lines() {
+        let Ok(r) = serde_json::from_str::<crate::rundir::record::RolloutRecord>(line) else { continue };
+        out.push(format!(
+            "{:<18} {:>4} {:>6}  {:<9} {:>6.2}  {}",
+            r.scenario.name(),
+            r.tier.number(),
+            r.seed,
+            r.outcome.name(),
+            r.reward,
+            r.disposition.name()
+        ));
+    }
+    out
+}
+
+/// The selection of a practice run: `n` seeds per cell drawn above
+/// [`PRACTICE_SEED_BASE`].
+pub fn practice_selection(mut selection: Selection) -> Selection {
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
+    selection.base_seed = PRACTICE_SEED_BASE + crate::hash::splitmix64(nanos) % (1 << 30);
+    selection
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::{ScenarioKind, Tier};
+
+    /// Without --feedback the end of an episode says the same under every
+    /// disposition and outcome: nothing a model is not told.
+    #[test]
+    fn an_episode_ends_without_outcome_or_intent_unless_feedback_is_asked() {
+        let mut seen = std::collections::HashSet::new();
+        for seed in 0..20 {
+            let key = EpisodeKey { scenario: ScenarioKind::YieldStandoff, tier: Tier::T2, seed, rollout: 0 };
+            for outcome in [Outcome::Success, Outcome::Collision, Outcome::Timeout] {
+                seen.insert(episode_over(&key, outcome, 0.5, false));
+                let told = episode_over(&key, outcome, 0.5, true);
+                assert!(told.contains(outcome.name()) && told.contains(&intent(&key)));
+            }
+        }
+        assert_eq!(seen.into_iter().collect::<Vec<_>>(), ["Episode over."]);
+    }
+}
