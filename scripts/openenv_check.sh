@@ -11,7 +11,7 @@
 #      with `negotiator serve --policy expert` as the model, offline, and the
 #      expert's rewards must equal those of `negotiator eval` on the same
 #      episodes (EVAL_SEEDS seeds of every scenario and tier);
-#   4. the README's Python examples (OpenEnv's client, the TRL rollout
+#   4. the Python examples of docs/env-server.md (OpenEnv's client, the TRL rollout
 #      function's episode loop) each play an episode;
 #   5. the Kubernetes manifest is validated offline (kubernetes-validate).
 # Usage: scripts/openenv_check.sh   (CI runs it from .ci/run)
@@ -93,7 +93,7 @@ echo "== vf-eval (verifiers' OpenEnv taskset) against negotiator eval ($eval_see
   --output "$work/eval" --run-name expert >/dev/null 2>"$work/eval.err" || { cat "$work/eval.err"; exit 1; }
 PATH="$venvs/verifiers/bin:$PATH" "$venvs/verifiers/bin/python" scripts/vf_eval_check.py \
   "$env_url" "$model_url" "$work/eval/expert/rollouts.jsonl" "$work/vf"
-echo "== the README's Python examples"
+echo "== the Python examples of docs/env-server.md"
 "$venvs/newest/bin/python" examples/python/openenv_client.py "$env_url" | tail -1
 "$venvs/verifiers/bin/python" examples/python/trl_grpo_rollout.py "$env_url" "$model_url"
 

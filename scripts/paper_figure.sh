@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's paper-style figure: four scripted policies behind `negotiator
+# The paper-style figure (README, docs/report.md): four scripted policies behind `negotiator
 # serve` (expert, cue_follower, cautious, always_proceed), n 50 of every
 # scenario and tier each, then
 #

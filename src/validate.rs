@@ -506,7 +506,7 @@ pub fn check_late_reader(late: &[LateCell]) -> Check {
 ///
 /// "late reader succeeds": the intersection meets it, the crosswalk's
 /// tier 3 (a dart triggered 1.35-1.45 s before the car arrives) and the
-/// merge's bluff tier do not yet (the README's validate block gives the
+/// merge's bluff tier do not yet (docs/validate.md gives the
 /// figures).
 pub const OPEN_CHECKS: [&str; 1] = ["late reader succeeds"];
 

@@ -19,7 +19,7 @@ pub(crate) const DESCRIPTION: &str = "Drive an automated car through a short tra
      intersection, an unmarked crosswalk, an on-ramp merge) whose other road user hides its intent: read it from \
      its motion and drive accordingly. Each step is one decision held for 0.5 s.";
 
-/// How the reward is paid (also in the README).
+/// How the reward is paid (also in docs/env-server.md).
 pub(crate) const REWARD: &str = "0 on every step but the last; on the step that ends the episode, the episode \
      reward in [-1, 1] (collision -1; timeout in [-0.5, 0.3] by progress; success in [0.9, 1] by efficiency and \
      comfort), the same number `eval` records.";

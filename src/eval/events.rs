@@ -71,8 +71,8 @@ impl std::fmt::Display for StopReason {
 }
 
 /// One thing that happened in a run, in the order it happened. Serialised
-/// as one JSON object per line by `--events json` (the schema is in the
-/// README).
+/// as one JSON object per line by `--events json` (the schema is in
+/// docs/eval.md).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "event", rename_all = "snake_case")]
 pub enum Event {

@@ -72,7 +72,7 @@ pub fn stop_message(truncated: u64, turns: u64, limit: Option<(&str, u64)>) -> S
     format!(
         "{truncated} of {turns} turns ({:.1}%) were cut off by the completion-token limit ({limit}) before the answer \
          (finish_reason \"length\"), more than {:.0}% of the first episodes: the model likely thinks inside the limit. \
-         Raise it with --max-tokens N (reasoning models: 25000; see \"Models that think\" in the README), \
+         Raise it with --max-tokens N (reasoning models: 25000; see \"Models that think\" in docs/eval.md), \
          or pass --allow-truncation to score cut-off turns as they are",
         100.0 * truncated as f64 / turns.max(1) as f64,
         100.0 * MAX_SHARE

@@ -64,7 +64,7 @@
 //!
 //! The best blind plans found succeed under one disposition only: about
 //! half the episodes, at the default search budget and at 2,000,000
-//! episodes alike (see the README's validate block).
+//! episodes alike (see docs/validate.md).
 //!
 //! The cue follower goes while the lane car brakes, or has eased off and is
 //! behind the ego's centre: on tier 3 the bluffer's easing off is that cue.

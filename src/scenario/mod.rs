@@ -195,7 +195,7 @@ impl FromStr for ScenarioKind {
 }
 
 /// Difficulty tier: 1 is the plain task; 2 and 3 change the information
-/// structure (see the README's scenario table).
+/// structure (see docs/scenarios.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(try_from = "u8", into = "u8")]
 pub enum Tier {

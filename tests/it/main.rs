@@ -3,6 +3,7 @@
 mod belief;
 mod core;
 mod cost;
+mod docs;
 mod envserver;
 mod eval;
 mod faults;
