@@ -5,31 +5,13 @@
 
 use crate::action::Action;
 use crate::grading::{self, Diagnostics, Grades};
+pub use crate::grading::{Choice, Outcome};
 use crate::observation::{EgoView, Observation};
 use crate::rng::{EpisodeRng, Stream};
 use crate::scenario::world::{EgoApproach, PlanPoint, World};
 use crate::scenario::{Disposition, ScenarioConfig, ScenarioKind, Tier, episode_key};
 use crate::sim::{Body, DECISION_INTERVAL, DT, EGO_MAX_ACCEL, EGO_MAX_BRAKE};
 use serde::{Deserialize, Serialize};
-
-/// How an episode ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Outcome {
-    Success,
-    Collision,
-    Timeout,
-}
-
-impl Outcome {
-    pub fn name(self) -> &'static str {
-        match self {
-            Outcome::Success => "success",
-            Outcome::Collision => "collision",
-            Outcome::Timeout => "timeout",
-        }
-    }
-}
 
 /// What identifies an episode: the same spec and the same actions give the
 /// same episode on any machine.
@@ -79,20 +61,6 @@ fn half() -> f64 {
 pub enum Party {
     Ego,
     Other,
-}
-
-/// The go / give-way choice the ego made, read from its motion (see
-/// [`grading::decision_correctness`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Choice {
-    /// The ego passed its point of no return (it could no longer stop short
-    /// of the conflict at full braking) before the other entered it; where
-    /// the other travels alongside (a merge), the ego entered first.
-    Go,
-    /// The other entered the conflict first while the ego could still stop
-    /// (alongside: the other entered first).
-    GiveWay,
 }
 
 /// When the information arrived and when the ego committed (SPEC

@@ -1,9 +1,41 @@
 //! Graders. They read privileged state (the disposition, the trajectory) and
 //! the actions taken; never the reasoning text.
 
-use crate::episode::{Choice, Outcome};
 use crate::scenario::Disposition;
 use serde::{Deserialize, Serialize};
+
+/// How an episode ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    Success,
+    Collision,
+    Timeout,
+}
+
+impl Outcome {
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Success => "success",
+            Outcome::Collision => "collision",
+            Outcome::Timeout => "timeout",
+        }
+    }
+}
+
+/// The go / give-way choice the ego made, read from its motion (see
+/// [`decision_correctness`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Choice {
+    /// The ego passed its point of no return (it could no longer stop short
+    /// of the conflict at full braking) before the other entered it; where
+    /// the other travels alongside (a merge), the ego entered first.
+    Go,
+    /// The other entered the conflict first while the ego could still stop
+    /// (alongside: the other entered first).
+    GiveWay,
+}
 
 /// nuPlan comfort bounds on longitudinal acceleration (m/s^2) and jerk (m/s^3).
 pub const COMFORT_MIN_ACCEL: f64 = -4.05;
@@ -66,7 +98,7 @@ pub fn compute_episode_reward(outcome: Outcome, d: &Diagnostics) -> f64 {
 /// disposition requires: 1 or 0 per episode.
 ///
 /// The choice is read from what the ego did, never from the maneuver label
-/// it gave (see [`crate::episode::Choice`]): *go* when the ego passed its
+/// it gave (see [`Choice`]): *go* when the ego passed its
 /// point of no return (it could no longer stop short of the conflict at
 /// full braking, 8 m/s^2) before the other road user entered the conflict;
 /// *give way* when the other entered first while the ego could still stop.

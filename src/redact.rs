@@ -221,9 +221,17 @@ pub mod term {
 
     /// Text on stdout (already line-terminated by the caller).
     pub fn out(text: &str) {
+        let _ = write_out(text);
+    }
+
+    /// Text on stdout, scrubbed, with the write's error returned: for a
+    /// command whose output is its result (`baselines`, `validate`,
+    /// `report`), so that a closed pipe ends it quietly (see
+    /// `cli::is_broken_pipe`) instead of computing on.
+    pub fn write_out(text: &str) -> std::io::Result<()> {
         let mut o = std::io::stdout().lock();
-        let _ = o.write_all(super::scrub(text).as_bytes());
-        let _ = o.flush();
+        o.write_all(super::scrub(text).as_bytes())?;
+        o.flush()
     }
 }
 

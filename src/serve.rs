@@ -514,19 +514,10 @@ async fn models(State(state): State<Arc<ServeState>>) -> Response {
     .into_response()
 }
 
-/// Bind, print `listening on http://HOST:PORT/v1` on stdout, serve until
-/// Ctrl-C (or SIGTERM).
-pub(crate) async fn serve(host: &str, port: u16, config: ServeConfig) -> std::io::Result<Arc<ServeState>> {
-    let listener = tokio::net::TcpListener::bind((host, port)).await?;
-    let addr = listener.local_addr()?;
+/// Serve on `listener` until Ctrl-C (or SIGTERM). The command line prints
+/// the address (`listening on http://HOST:PORT/v1`) before calling this.
+pub(crate) async fn serve(listener: tokio::net::TcpListener, config: ServeConfig) -> std::io::Result<Arc<ServeState>> {
     let state = Arc::new(ServeState::new(config));
-    {
-        use std::io::Write;
-        let mut out = std::io::stdout().lock();
-        let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
-        writeln!(out, "listening on http://{host}:{}/v1", addr.port())?;
-        out.flush()?;
-    }
     axum::serve(listener, router(state.clone())).with_graceful_shutdown(shutdown()).await?;
     Ok(state)
 }

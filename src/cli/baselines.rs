@@ -6,7 +6,6 @@ use crate::belief::Probe;
 use crate::export::Format;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -64,9 +63,7 @@ impl BaselinesArgs {
             Probe::None => crate::baselines::table(&cells),
             Probe::Belief => crate::baselines::belief_table(&cells),
         };
-        let text = self.format.exporter().render(&table);
-        let mut out = std::io::stdout().lock();
-        out.write_all(text.as_bytes())?;
+        crate::redact::term::write_out(&self.format.exporter().render(&table))?;
         Ok(ExitCode::SUCCESS)
     }
 }

@@ -439,7 +439,7 @@ impl EvalArgs {
                     crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
                         .map_err(usage)?;
                 if !self.quiet {
-                    eprintln!("shard {shard} (from the {source})");
+                    crate::redact::eline!("shard {shard} (from the {source})");
                 }
                 shard
             }
@@ -511,7 +511,7 @@ impl EvalArgs {
         let mut reporter = self.reporter()?;
         if !self.quiet {
             for line in options.profile_notes() {
-                eprintln!("{line}");
+                crate::redact::eline!("{line}");
             }
         }
         let limit = crate::llm::profile::TOKEN_LIMIT_FIELDS

@@ -8,7 +8,6 @@ use crate::export::Format;
 use crate::report::pick::BadPick;
 use crate::report::{self, MIN_RESAMPLES, ReportError, ReportOptions};
 use crate::scenario::Tier;
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -106,21 +105,22 @@ impl ReportArgs {
         let written = report::write(&built, &self.out).map_err(input)?;
         if !self.quiet {
             let r = &built.report;
-            let mut out = std::io::stdout().lock();
+            let mut out = String::new();
             match self.format {
                 Format::Json => {
-                    serde_json::to_writer_pretty(&mut out, r)?;
-                    writeln!(out)?;
+                    out.push_str(&serde_json::to_string_pretty(r)?);
+                    out.push('\n');
                 }
-                Format::Csv => write!(out, "{}", self.format.exporter().render(&r.leaderboard.table(r.resamples)))?,
+                Format::Csv => out.push_str(&self.format.exporter().render(&r.leaderboard.table(r.resamples))),
                 Format::Md | Format::Table => {
                     let exporter = self.format.exporter();
                     for t in r.tables() {
-                        writeln!(out, "{}", exporter.render(&t))?;
+                        out.push_str(&exporter.render(&t));
+                        out.push('\n');
                     }
                 }
             }
-            out.flush()?;
+            crate::redact::term::write_out(&out)?;
             for w in &r.warnings {
                 crate::redact::eline!("warning: {w}");
             }

@@ -90,7 +90,7 @@ impl ServeArgs {
             belief: (self.probe == Probe::Belief)
                 .then(|| std::sync::Arc::new(crate::serve::EpisodeIndex::build(self.probe_seeds.clone()))),
         };
-        eprintln!(
+        crate::redact::eline!(
             "serving policy '{policy}' (fail {} | drop {} | garbage {} | rate limit {} | latency {} ms | seed {})",
             config.fail_rate,
             config.drop_rate,
@@ -101,10 +101,16 @@ impl ServeArgs {
         );
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let state = runtime
-            .block_on(crate::serve::serve(&self.host, self.port, config))
+            .block_on(async {
+                let listener = tokio::net::TcpListener::bind((self.host.as_str(), self.port)).await?;
+                let addr = listener.local_addr()?;
+                let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
+                crate::redact::term::out(&format!("listening on http://{host}:{}/v1\n", addr.port()));
+                crate::serve::serve(listener, config).await
+            })
             .map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;
         let s = &state.stats;
-        eprintln!(
+        crate::redact::eline!(
             "served {} requests: {} ok, {} failed, {} rate-limited, {} dropped, {} garbage, {} unreadable scenes, {} \
              unidentified episodes",
             s.requests.load(Relaxed),

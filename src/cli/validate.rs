@@ -2,7 +2,6 @@
 
 use super::exit;
 use crate::scenario::ScenarioSet;
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -45,24 +44,26 @@ impl ValidateArgs {
             )));
         }
         let checks = crate::validate::run(&set, self.episodes, self.seed, self.search_budget, self.strict);
-        let mut out = std::io::stdout().lock();
+        let mut out = String::new();
         if self.json {
-            serde_json::to_writer_pretty(&mut out, &checks)?;
-            writeln!(out)?;
+            out.push_str(&serde_json::to_string_pretty(&checks)?);
+            out.push('\n');
         } else {
             for c in &checks {
-                writeln!(out, "{}", c.line())?;
+                out.push_str(&c.line());
+                out.push('\n');
             }
         }
         let failed = checks.iter().filter(|c| c.failed()).count();
         let open: Vec<&str> = checks.iter().filter(|c| !c.pass && !c.gating).map(|c| c.name).collect();
         if !self.json {
             let passed = checks.iter().filter(|c| c.pass).count();
-            writeln!(out, "{passed} passed, {failed} failed")?;
+            out.push_str(&format!("{passed} passed, {failed} failed\n"));
             if !open.is_empty() {
-                writeln!(out, "open (not gating without --strict): {}", open.join(", "))?;
+                out.push_str(&format!("open (not gating without --strict): {}\n", open.join(", ")));
             }
         }
+        crate::redact::term::write_out(&out)?;
         Ok(ExitCode::from(if failed == 0 { exit::SUCCESS } else { exit::FAILURE }))
     }
 }

@@ -3,12 +3,13 @@
 //! [`super::progress`]). The library never prints; reporters decide what
 //! an event looks like.
 
-use super::progress::Counters;
 use crate::episode::Outcome;
 use crate::rundir::RunStatus;
 use crate::rundir::record::EpisodeKey;
 use serde::Serialize;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
+use std::time::{Duration, Instant};
 
 /// Why a run stopped starting new episodes before its selection was done.
 /// Variants are in order of precedence: a later one replaces an earlier one
@@ -135,4 +136,44 @@ pub trait Reporter {
     fn attach(&mut self, _live: Arc<Counters>) {}
 
     fn event(&mut self, event: &Event);
+}
+
+/// Counters shared by the episode tasks and the display.
+#[derive(Debug, Default)]
+pub struct Counters {
+    pub done: AtomicU64,
+    pub success: AtomicU64,
+    pub infra_errors: AtomicU64,
+    pub retries: AtomicU64,
+    pub tokens: AtomicU64,
+    pub turns: AtomicU64,
+    /// Estimated spend in nano-dollars (an integer, so tasks add to it
+    /// without a lock), and whether the model has a price at all.
+    pub cost_nanousd: AtomicU64,
+    pub priced: AtomicBool,
+    /// The latest failed request's cause and when it happened, for the
+    /// progress line (an outage shows why while it happens).
+    pub last_error: std::sync::Mutex<Option<(Instant, String)>>,
+}
+
+impl Counters {
+    pub fn record_error(&self, message: &str) {
+        let mut last = self.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        *last = Some((Instant::now(), message.to_string()));
+    }
+
+    pub fn add_cost(&self, usd: f64) {
+        self.cost_nanousd.fetch_add((usd * 1e9).round() as u64, Relaxed);
+    }
+
+    /// The spend so far, `None` when the price is unknown.
+    pub fn cost(&self) -> Option<f64> {
+        self.priced.load(Relaxed).then(|| self.cost_nanousd.load(Relaxed) as f64 / 1e9)
+    }
+
+    /// The latest failure, if it happened within the last 30 s.
+    pub(crate) fn recent_error(&self) -> Option<String> {
+        let last = self.last_error.lock().unwrap_or_else(|e| e.into_inner());
+        last.as_ref().filter(|(at, _)| at.elapsed() < Duration::from_secs(30)).map(|(_, m)| m.clone())
+    }
 }

@@ -35,8 +35,8 @@ use crate::rundir::{
     self, Endpoint, Invocation, RunConfig, RunInfo, RunStatus, SCHEMA_VERSION, Selection, Settings, Totals,
 };
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use events::Counters;
 use events::{Event, Reporter, StopReason};
-use progress::Counters;
 use prompt::History;
 use std::collections::HashMap;
 use std::path::PathBuf;

@@ -57,7 +57,8 @@ fn regenerate(text: &str) -> (String, Vec<String>) {
             old.push(l);
         }
         let produced = output_of(command);
-        let new = if fenced { format!("```text\n{}\n```", produced.trim_end()) } else { produced.trim_end().to_string() };
+        let new =
+            if fenced { format!("```text\n{}\n```", produced.trim_end()) } else { produced.trim_end().to_string() };
         if old.join("\n") != new {
             stale.push(command.to_string());
         }
@@ -131,7 +132,8 @@ fn the_readmes_runnable_block_runs() {
             .map(String::from)
             .collect();
         if args.first().is_some_and(|a| a == "serve") {
-            let rest: Vec<&str> = args[1..].iter().map(String::as_str).filter(|a| *a != "--port" && *a != "8765").collect();
+            let rest: Vec<&str> =
+                args[1..].iter().map(String::as_str).filter(|a| *a != "--port" && *a != "8765").collect();
             server = Some(Server::start(&rest));
             continue;
         }
