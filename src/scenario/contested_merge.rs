@@ -76,10 +76,8 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::action::Action;
 use crate::belief::NoisyReading;
-use crate::observation::{Sample, Scene, Track};
-use crate::policy::{go, hedge};
+use crate::observation::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
 use serde::{Deserialize, Serialize};
@@ -717,134 +715,5 @@ impl World for MergeWorld {
             PlanPoint { x: self.lane_car.s, y: 0.0, v: self.lane_car.v },
             PlanPoint { x: self.follower.s, y: 0.0, v: self.follower.v },
         ]
-    }
-}
-
-// --- Baseline rules for this scenario (read only the public observation) ---
-
-/// A car behind the ego is taken to be this much closer than it reads (m).
-const BEHIND_MARGIN_M: f64 = 1.5;
-/// Where the expert stops at the latest: this far before the merge point.
-const WAIT_GAP_M: f64 = 2.0;
-/// Until this close to the merge point (m), a lane car that has shown
-/// nothing yet is given the chance to make room.
-const UNDECIDED_UNTIL_M: f64 = 26.0;
-
-/// Whether the lane has room for the ego now. Cars are placed by their
-/// centre relative to the ego (positive ahead). The car ahead needs a
-/// bumper gap that covers a short headway and the closing speed; a car
-/// behind needs one in which it can brake comfortably to the ego's speed,
-/// and must not be gaining speed (a car that re-accelerates may be closing
-/// the gap on purpose).
-fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
-    cars.iter().all(|t| {
-        let (rel, v) = (t.now.position_m, t.now.velocity_mps);
-        if rel >= 0.0 {
-            let gap = rel - CAR_LENGTH;
-            let closing = (ego_speed - v).max(0.0);
-            gap >= 1.0 + 0.3 * ego_speed + closing * closing / 6.0
-        } else {
-            // Read pessimistically (a reading may be noisy): as close as
-            // the track allows and as fast as it has lately been.
-            let v = v.max(t.past.iter().map(|p| p.velocity_mps).sum::<f64>() / t.past.len() as f64);
-            let gap = -rel - CAR_LENGTH - BEHIND_MARGIN_M;
-            let closing = (v - ego_speed).max(0.0);
-            gap >= 0.5 + closing * closing / 6.0 && (t.recent_accel() < 0.5 || v < ego_speed - 0.5)
-        }
-    })
-}
-
-/// Whether the lane car is making room: clearly slowing, or holding back
-/// behind the ego's rear no faster than the ego.
-fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
-    let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
-    let slowing =
-        rel < CAR_LENGTH && (speed_trend(lane_car) < -2.2 || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
-    // Behind the ego's centre and no faster: it is letting the ego go.
-    let fallen_back = rel < -1.5 && v < ego_speed - 0.5;
-    let holding_back = rel < -CAR_LENGTH
-        && v <= ego_speed + 0.3
-        && (lane_car.recent_accel() < 0.5 || (v < ego_speed - 1.0 && lane_car.recent_accel() < 2.0));
-    slowing || holding_back || fallen_back
-}
-
-/// The lane car's speed now against its mean over the observed history
-/// (m/s): robust to observation noise, negative for a car easing off.
-fn speed_trend(t: &Track) -> f64 {
-    let mean = t.past.iter().map(|p| p.velocity_mps).sum::<f64>() / t.past.len() as f64;
-    t.now.velocity_mps - mean
-}
-
-/// Speed-tracking action toward `target`, braking at most as needed.
-fn toward(v: f64, target: f64) -> Action {
-    use crate::action::Maneuver;
-    if v < target - 0.2 {
-        Action::proceed_at(1.0 + 2.0 * ((target - v) / 1.5 - 0.5).clamp(0.0, 1.0))
-    } else if v > target + 0.2 {
-        Action::new(Maneuver::Yield, ((v - target) / 2.0 - 0.1).clamp(0.0, 1.0))
-    } else {
-        Action::proceed_at(1.0)
-    }
-}
-
-/// The gentler (more braking) of two actions, by the acceleration each
-/// commands at speed `v`.
-fn gentler(v: f64, v_max: f64, a: Action, b: Action) -> Action {
-    let acc = |x: &Action| x.control().acceleration(v, v_max, crate::sim::DT);
-    if acc(&a) <= acc(&b) { a } else { b }
-}
-
-/// In the lane: full speed, but keep a safe gap to a lane car ahead.
-fn follow_in_lane(v: f64, v_max: f64, cars: [&Track; 2]) -> Action {
-    let ahead =
-        cars.iter().filter(|t| t.now.position_m > 0.0).min_by(|a, b| a.now.position_m.total_cmp(&b.now.position_m));
-    match ahead {
-        Some(t) => {
-            let gap = t.now.position_m - CAR_LENGTH;
-            let target = (t.now.velocity_mps + 0.8 * (gap - 2.0 - 0.6 * v)).clamp(0.0, v_max);
-            toward(v, target)
-        }
-        None => go(),
-    }
-}
-
-/// The expert: keep pace at first (a car making room only opens a gap for
-/// an ego that keeps pace); merge ahead once the lane car shows it makes
-/// room; otherwise let the lane car and its follower pass, keeping a stop
-/// before the merge point possible, and merge behind them.
-pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
-    if d < 0.0 {
-        return follow_in_lane(v, v_max, [lane_car, follower]);
-    }
-    if lane_has_room([lane_car, follower], v) {
-        return gentler(v, v_max, go(), follow_in_lane(v, v_max, [lane_car, follower]));
-    }
-    // No sign yet of a car holding the lane (speeding up to keep the ego out).
-    let undecided = speed_trend(lane_car) < 1.0 && lane_car.now.position_m.abs() < CAR_LENGTH + 1.0;
-    if making_room(lane_car, v) || (undecided && d > UNDECIDED_UNTIL_M) {
-        return go();
-    }
-    // Let both lane cars go first: arrive at the merge point once the last
-    // of them has cleared it, never closer than a comfortable stop.
-    let last = if follower.now.position_m > lane_car.now.position_m { lane_car } else { follower };
-    let (rel, v_last) = (last.now.position_m, last.now.velocity_mps.max(1.0));
-    let clear_in = (d - rel + CAR_LENGTH + 3.0) / v_last;
-    let target = (d / clear_in).min(v_last - 1.0).max(0.0);
-    gentler(v, v_max, toward(v, target), hedge(v, d - WAIT_GAP_M))
-}
-
-/// The cue follower: merge whenever the lane car has dropped back (behind
-/// the ego and slower than it), without checking that it keeps making room
-/// (a car closing a gap from behind is still behind and slower for a while).
-pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
-    let (rel, v_lane) = (lane_car.now.position_m, lane_car.now.velocity_mps);
-    let top = lane_car.past.iter().map(|p| p.velocity_mps).fold(v_lane, f64::max);
-    let eased = v_lane < top - 1.0 || lane_car.past.iter().any(|p| p.velocity_mps < top - 1.0);
-    let braking = lane_car.recent_accel() < -1.2;
-    let dropping_back = braking || (eased && rel < 0.0);
-    if dropping_back || d < 0.0 || lane_has_room([lane_car, follower], v) {
-        go()
-    } else {
-        expert(v, v_max, d, lane_car, follower)
     }
 }

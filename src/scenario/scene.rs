@@ -1,12 +1,10 @@
 //! The public scene of each scenario: what the observation holds beyond the
-//! ego's own state, how the scene text phrases it, and which baseline rules
-//! read it. With each scenario's own file and its registration in `mod.rs`,
-//! this is everything a new scenario adds: the observation module renders
-//! and parses any scene through the methods below without knowing which
-//! scenarios exist.
+//! ego's own state, and how the scene text phrases it. The observation
+//! module renders and parses any scene through the methods below without
+//! knowing which scenarios exist; the scripted policies' rules read it from
+//! the public side (`policy::expert`).
 
-use super::{ScenarioKind, contested_merge, pedestrian_feint, yield_standoff};
-use crate::action::Action;
+use super::ScenarioKind;
 use crate::observation::Track;
 use serde::{Deserialize, Serialize};
 
@@ -189,36 +187,6 @@ impl Scene {
             _ => older.tracks(),
         };
         Scene::from_parts(self.kind(), &self.place(), &tracks).expect("a scene's own parts rebuild it")
-    }
-
-    /// The expert's action (see `policy::expert`): each scenario's rule.
-    pub(crate) fn expert(&self, v: f64, v_max: f64, last: Option<Action>) -> Action {
-        match self {
-            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
-                yield_standoff::expert(v, v_max, *ego_to_conflict_m, other, follower, last)
-            }
-            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-                pedestrian_feint::expert(v, v_max, *ego_to_crosswalk_m, pedestrian)
-            }
-            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
-                contested_merge::expert(v, v_max, *ego_to_merge_m, lane_car, follower)
-            }
-        }
-    }
-
-    /// The cue follower's action: each scenario's instantaneous-cue rule.
-    pub(crate) fn cue_follower(&self, v: f64, v_max: f64) -> Action {
-        match self {
-            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
-                yield_standoff::cue_follower(v, v_max, *ego_to_conflict_m, other, follower)
-            }
-            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-                pedestrian_feint::cue_follower(v, v_max, *ego_to_crosswalk_m, pedestrian)
-            }
-            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
-                contested_merge::cue_follower(v, v_max, *ego_to_merge_m, lane_car, follower)
-            }
-        }
     }
 }
 

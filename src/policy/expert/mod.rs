@@ -7,12 +7,46 @@
 //! possible, and lets the other go first otherwise. The cue follower acts on
 //! the instantaneous cue instead: the other is braking, so go. The late
 //! expert is the expert reading the scene one decision late. The rules of
-//! each scenario live with the scenario (`scenario/`, reached through
-//! [`crate::scenario::Scene`]).
+//! each scenario are in this module's files, one per scenario: they read
+//! only the public `Scene`, never a world.
+
+mod contested_merge;
+mod pedestrian_feint;
+mod yield_standoff;
 
 use super::Policy;
 use crate::action::Action;
 use crate::observation::{Observation, Scene};
+
+/// The expert's action on `scene`: each scenario's rule.
+fn expert_action(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Action {
+    match *scene {
+        Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
+            yield_standoff::expert(v, v_max, ego_to_conflict_m, &other, &follower, last)
+        }
+        Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
+            pedestrian_feint::expert(v, v_max, ego_to_crosswalk_m, &pedestrian)
+        }
+        Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
+            contested_merge::expert(v, v_max, ego_to_merge_m, &lane_car, &follower)
+        }
+    }
+}
+
+/// The cue follower's action on `scene`: each scenario's instantaneous-cue rule.
+fn cue_action(scene: &Scene, v: f64, v_max: f64) -> Action {
+    match *scene {
+        Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
+            yield_standoff::cue_follower(v, v_max, ego_to_conflict_m, &other, &follower)
+        }
+        Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
+            pedestrian_feint::cue_follower(v, v_max, ego_to_crosswalk_m, &pedestrian)
+        }
+        Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
+            contested_merge::cue_follower(v, v_max, ego_to_merge_m, &lane_car, &follower)
+        }
+    }
+}
 
 pub struct Expert;
 pub struct CueFollower;
@@ -49,7 +83,7 @@ impl ExpertLate {
 
 impl Policy for Expert {
     fn act(&mut self, obs: &Observation) -> Action {
-        obs.scene.expert(obs.ego.speed_mps, obs.ego.speed_limit_mps, obs.last_action)
+        expert_action(&obs.scene, obs.ego.speed_mps, obs.ego.speed_limit_mps, obs.last_action)
     }
 
     /// The reference belief: the ideal observer's.
@@ -75,7 +109,7 @@ impl Policy for ExpertLate {
 
 impl Policy for CueFollower {
     fn act(&mut self, obs: &Observation) -> Action {
-        obs.scene.cue_follower(obs.ego.speed_mps, obs.ego.speed_limit_mps)
+        cue_action(&obs.scene, obs.ego.speed_mps, obs.ego.speed_limit_mps)
     }
 }
 

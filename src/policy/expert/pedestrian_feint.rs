@@ -1,0 +1,83 @@
+//! The expert's and the cue follower's rules on `pedestrian_feint`. They read only the
+//! public scene (the `Scene` a policy is given) and the scenario's public
+//! geometry, never its world: they live on the public side of the firewall.
+
+use crate::action::{Action, Maneuver};
+use crate::observation::Track;
+use crate::policy::{go, hedge};
+use crate::scenario::pedestrian_feint::{PATH_FAR, PATH_NEAR};
+
+/// Where the expert waits: this far before the crossing line.
+const WAIT_GAP_M: f64 = 2.0;
+/// The expert's pace while it reads the pedestrian (m/s).
+const PACE_MPS: f64 = 10.5;
+/// A pedestrian standing at the kerb while the ego is due within this (s)
+/// is waiting for the ego: any crosser (late step-out, dart) would already
+/// be moving.
+const COMMIT_ETA_S: f64 = 1.2;
+
+/// Whether the ego could still stop short of the line if it kept its speed
+/// for one more decision (0.5 s) and then braked hard.
+fn can_wait_a_turn(v: f64, d: f64) -> bool {
+    d - 0.5 * v - 0.1 >= v * v / (2.0 * 8.0)
+}
+
+/// Give way to a pedestrian in or stepping into the road, timing the arrival
+/// at the line for just after it has cleared the ego's path.
+fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
+    if vel > 0.3 && lat > PATH_NEAR - 1.0 && d > 0.3 {
+        let t_clear = (PATH_FAR + 0.1 - lat) / vel + 0.4;
+        // The steady speed that reaches the line just after it clears.
+        let v_t = d / t_clear;
+        return if v > v_t + 0.3 {
+            let need = (v - v_t) / 0.5;
+            if need > 4.0 {
+                Action::new(Maneuver::Stop, ((need - 4.0) / 4.0).clamp(0.0, 1.0))
+            } else {
+                Action::new(Maneuver::Yield, ((need - 0.5) / 3.5).clamp(0.0, 1.0))
+            }
+        } else if v < v_t - 0.3 {
+            Action::proceed_at(1.0)
+        } else {
+            Action::new(Maneuver::Yield, 0.0)
+        };
+    }
+    hedge(v, d - WAIT_GAP_M)
+}
+
+/// The expert: give way to a pedestrian moving into or through the road;
+/// keep a going pace toward one who walks to or stands at the kerb while a
+/// stop stays possible, and go once it is due so soon that a crosser would
+/// already have moved (a standing pedestrian then waits for the ego).
+pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
+    let lat = p.now.position_m;
+    let vel = p.now.velocity_mps;
+    if d < 0.0 || (lat > PATH_FAR + 0.1 && vel >= -0.1) {
+        return go();
+    }
+    let kerb = lat <= -0.1;
+    let standing = vel.abs() < 0.15;
+    // Slowing at the kerb is stopping, not stepping off.
+    let stopping = p.recent_accel() < -0.3;
+    let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
+    if !kerb || (!standing && !stopping && (lat > -0.25 || setting_off)) {
+        return give_way(v, d, lat, vel);
+    }
+    let eta = if v > 0.5 { d / v } else { f64::INFINITY };
+    if standing && lat > -1.2 && eta <= COMMIT_ETA_S {
+        return go();
+    }
+    if !can_wait_a_turn(v, d) {
+        return hedge(v, d - WAIT_GAP_M);
+    }
+    // Keep a going pace.
+    if v < PACE_MPS { Action::proceed_at(1.0) } else { Action::new(Maneuver::Yield, 0.0) }
+}
+
+/// The cue follower: go as soon as the pedestrian is not moving into the road.
+pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
+    let lat = p.now.position_m;
+    let crossed = lat > PATH_FAR + 0.3;
+    let coming = p.now.velocity_mps > 0.2 || (lat > 0.0 && !crossed);
+    if d < 0.0 || crossed || !coming { go() } else { give_way(v, d, lat, p.now.velocity_mps) }
+}
