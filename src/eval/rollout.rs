@@ -1,0 +1,219 @@
+//! One episode played against the endpoint, turn by turn, and its record
+//! (the line of `rollouts.jsonl`).
+
+use super::*;
+
+/// A finished episode's summary scalars and its line, or why it did not finish.
+pub(super) type EpisodeResult = Result<(EpisodeScalars, String), EpisodeError>;
+
+/// Why an episode did not finish.
+pub(super) enum EpisodeError {
+    /// Retries ran out: recorded, excluded, re-run next time.
+    Infra { turn: u32, message: String },
+    /// The endpoint refuses the run: stop everything.
+    Fatal(LlmError),
+    /// The conversation outgrew the model's context at `turn`: recorded in
+    /// errors.jsonl, missing from the scores; no new episode is started,
+    /// the ones in flight finish.
+    ContextOverflow { turn: u32, error: LlmError },
+}
+
+/// The action of a reply, with the transport's verdicts added: a reply cut
+/// at the size cap, or not valid UTF-8, is the model's bad output and
+/// drives as the conservative stop, like any other parse error.
+pub(super) fn parse_reply(completion: &Completion, max_reply_bytes: usize) -> crate::action::ParsedAction {
+    let mut parsed = parse_action(completion.content.as_deref().unwrap_or(""));
+    let mut flagged = Vec::new();
+    if completion.capped {
+        flagged.push(crate::action::ActionParseError::Oversized { limit: max_reply_bytes });
+    }
+    if completion.invalid_utf8 {
+        flagged.push(crate::action::ActionParseError::InvalidUtf8);
+    }
+    if !flagged.is_empty() {
+        parsed.action = crate::action::Action::CONSERVATIVE;
+        parsed.errors.splice(0..0, flagged);
+    }
+    parsed
+}
+
+/// Play one episode to its end; return its summary scalars and its line.
+pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
+    let opts = &ctx.options;
+    let started = Instant::now();
+    let mut episode = Episode::new(opts.scenario_set.get(key.scenario), key.tier, key.seed);
+    if opts.trajectories {
+        episode.record_trajectory();
+    }
+    let mut history = History::default();
+    let mut turns: Vec<TurnRecord> = Vec::new();
+    let retries = AtomicU32::new(0);
+    // Priced per turn, so turns without usage are priced at their estimate.
+    let mut cost: Option<f64> = opts.pricing.as_ref().map(|_| 0.0);
+    while !episode.is_done() {
+        let turn = episode.observation().turn;
+        let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
+        let messages = history.messages(ctx.system(key.scenario), opts.config.history, &scene);
+        let request =
+            ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
+        let on_retry = |message: &str| {
+            retries.fetch_add(1, Relaxed);
+            ctx.counters.retries.fetch_add(1, Relaxed);
+            ctx.counters.record_error(message);
+        };
+        let answer = match ctx.take_first_turn(key) {
+            Some(pre) => {
+                // Retries of the preflight belong to this episode.
+                let extra = pre.as_ref().map_or(opts.client.retry.max_retries, |c| c.attempts.saturating_sub(1));
+                retries.fetch_add(extra, Relaxed);
+                pre
+            }
+            None => ctx.client.chat(&request, on_retry).await,
+        };
+        let completion = match answer {
+            Ok(c) => c,
+            Err(e @ LlmError::Exhausted { .. }) => {
+                return Err(EpisodeError::Infra { turn, message: e.to_string() });
+            }
+            Err(e @ LlmError::ContextOverflow { .. }) => return Err(EpisodeError::ContextOverflow { turn, error: e }),
+            Err(e) => return Err(EpisodeError::Fatal(e)),
+        };
+        let sent_bytes: usize = messages.iter().map(|m| m.content.len()).sum();
+        drop(messages);
+        let parsed = parse_reply(&completion, ctx.options.client.max_reply_bytes);
+        let (tokens, estimated) = turn_tokens(&completion, sent_bytes);
+        if let (Some(total), Some(pricing)) = (cost.as_mut(), opts.pricing.as_ref()) {
+            let (prompt, cached, output) = billed_tokens(&completion, sent_bytes);
+            let usd = pricing.cost(prompt, cached, output);
+            *total += usd;
+            ctx.counters.add_cost(usd);
+        }
+        ctx.counters.tokens.fetch_add(tokens, Relaxed);
+        ctx.counters.turns.fetch_add(1, Relaxed);
+        let ideal_belief = episode.ideal_belief();
+        let (belief, belief_error) = match opts.config.probe {
+            Probe::None => (None, None),
+            Probe::Belief => match parse_belief(completion.content.as_deref().unwrap_or("")) {
+                Ok(b) => (Some(b), None),
+                Err(e) => (None, Some(e)),
+            },
+        };
+        episode.step(parsed.action);
+        let answer = prompt::history_answer(&completion.answer);
+        let truncated = completion.finish_reason.as_deref() == Some("length");
+        turns.push(TurnRecord {
+            turn,
+            scene: scene.content.clone(),
+            reply: completion.content,
+            reasoning: completion.reasoning,
+            finish_reason: completion.finish_reason,
+            action: parsed.action,
+            action_reasoning: parsed.reasoning,
+            parse_errors: parsed.errors,
+            truncated,
+            reasoning_tokens: completion.usage.map_or(0, |u| u.reasoning()),
+            cached_tokens: completion.usage.map_or(0, |u| u.cached()),
+            usage: completion.usage,
+            tokens,
+            tokens_estimated: estimated,
+            reply_capped: completion.capped,
+            latency_ms: completion.latency.as_millis() as u64,
+            attempts: completion.attempts,
+            after_resolution: false,
+            ideal_belief: Some(ideal_belief),
+            belief,
+            belief_error,
+        });
+        history.push(scene, answer);
+    }
+    let graded = episode.finish();
+    for (t, d) in turns.iter_mut().zip(&graded.decisions) {
+        t.after_resolution = d.after_resolution;
+    }
+    let record = rollout_record(ctx, key, graded, turns, (retries.load(Relaxed), cost), started);
+    let line = serde_json::to_string(&record).expect("a rollout record serialises");
+    Ok((EpisodeScalars::from(&record), line))
+}
+
+/// Tokens of one turn: the reported total, or (no usage reported) an
+/// estimate of ~4 bytes per token over the request and the reply, so
+/// budgets and tokens/episode stay meaningful. The flag says which.
+pub(super) fn turn_tokens(completion: &Completion, sent_bytes: usize) -> (u64, bool) {
+    match completion.usage.and_then(|u| u.total()) {
+        Some(t) => (t, false),
+        None => (((sent_bytes + completion.content.as_ref().map_or(0, String::len)) / 4) as u64, true),
+    }
+}
+
+/// The tokens a turn is billed for: (prompt, of which cached, output with
+/// hidden reasoning), as reported, or (no usage reported) estimated like
+/// [`turn_tokens`] at ~4 bytes per token, none of them cached.
+pub(super) fn billed_tokens(completion: &Completion, sent_bytes: usize) -> (u64, u64, u64) {
+    match completion.usage {
+        Some(u) if u.prompt_tokens.is_some() || u.completion_tokens.is_some() => {
+            (u.prompt_tokens.unwrap_or(0), u.cached(), u.billed_output())
+        }
+        _ => ((sent_bytes / 4) as u64, 0, (completion.content.as_ref().map_or(0, String::len) / 4) as u64),
+    }
+}
+
+/// The line of a finished episode: its grades and its transcript, with the
+/// per-episode sums of the turns.
+pub(super) fn rollout_record(
+    ctx: &Ctx,
+    key: EpisodeKey,
+    graded: EpisodeRecord,
+    turns: Vec<TurnRecord>,
+    (retries, cost_usd): (u32, Option<f64>),
+    started: Instant,
+) -> RolloutRecord {
+    let belief = (ctx.options.config.probe == Probe::Belief).then(|| {
+        let turns: Vec<BeliefTurn> = turns
+            .iter()
+            .map(|t| BeliefTurn {
+                turn: t.turn,
+                stated: t.belief,
+                ideal: t.ideal_belief.unwrap_or(0.5),
+                maneuver: t.parse_errors.is_empty().then_some(t.action.maneuver),
+                open: !t.after_resolution,
+            })
+            .collect();
+        BeliefMetrics::compute(&turns, graded.disposition.ego_should_go(), graded.timing.evidence_turn)
+    });
+    let usage = |part: fn(&Usage) -> Option<u64>| -> u64 {
+        turns.iter().filter_map(|t| t.usage.as_ref()).map(|u| part(u).unwrap_or(0)).sum()
+    };
+    RolloutRecord {
+        schema_version: SCHEMA_VERSION,
+        model: ctx.options.config.model.clone(),
+        config_hash: ctx.hash.clone(),
+        scenario: key.scenario,
+        tier: key.tier,
+        seed: key.seed,
+        rollout: key.rollout,
+        disposition: graded.disposition,
+        outcome: graded.outcome,
+        reward: graded.grades.reward,
+        decision_correctness: graded.grades.decision_correctness,
+        timing: graded.timing,
+        belief,
+        diagnostics: graded.grades.diagnostics,
+        turns_taken: turns.len() as u32,
+        // A cut-off reply is counted as truncated, not as a parse error.
+        parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty() && !t.truncated).count() as u32,
+        tokens: turns.iter().map(|t| t.tokens).sum(),
+        prompt_tokens: usage(|u| u.prompt_tokens),
+        // Billed output: thinking that only the total reports counts too.
+        completion_tokens: usage(|u| u.completion_tokens.map(|c| c + u.hidden_reasoning())),
+        truncated_turns: turns.iter().filter(|t| t.truncated).count() as u32,
+        reasoning_tokens: turns.iter().map(|t| t.reasoning_tokens).sum(),
+        cached_tokens: turns.iter().map(|t| t.cached_tokens).sum(),
+        cost_usd,
+        latency_ms: turns.iter().map(|t| t.latency_ms).sum(),
+        retries,
+        wall_ms: started.elapsed().as_millis() as u64,
+        finished_at: now_rfc3339(),
+        turns,
+        trajectory: graded.trajectory,
+    }
+}
