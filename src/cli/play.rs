@@ -145,7 +145,7 @@ impl PlayArgs {
         let outcome = crate::play::run(options)?;
         let out = |line: &str| crate::redact::term::out(&format!("{line}\n"));
         if outcome.missing == 0 {
-            out(&format!("All episodes played: mean success {:.2}.", mean_success(&run_dir)));
+            out(&format!("All episodes played: mean success {:.2}.", crate::play::mean_success(&run_dir)));
             for line in crate::play::summary_lines(&run_dir) {
                 out(&line);
             }
@@ -164,13 +164,4 @@ impl PlayArgs {
         }
         Ok(ExitCode::SUCCESS)
     }
-}
-
-fn mean_success(run_dir: &std::path::Path) -> f64 {
-    let lines = crate::play::summary_lines(run_dir);
-    let n = lines.len().saturating_sub(1);
-    if n == 0 {
-        return 0.0;
-    }
-    lines.iter().skip(1).filter(|l| l.contains(" success ")).count() as f64 / n as f64
 }

@@ -72,8 +72,8 @@ pub(super) fn finalize(run: Prepared, drove: Drove, reporter: &mut dyn Reporter)
         return Err(fatal_error(e, &ctx, &dir));
     }
     let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
-    rundir::write_atomic(&dir.join("summary.json"), &json)?;
-    rundir::write_atomic(&dir.join("summary.md"), summary::render(&summary).as_bytes())?;
+    rundir::write_atomic(&dir.join(rundir::SUMMARY_JSON), &json)?;
+    rundir::write_atomic(&dir.join(rundir::SUMMARY_MD), summary::render(&summary).as_bytes())?;
     Ok(RunOutcome { summary, run_dir: dir, missing, status, stop: drove.stop })
 }
 

@@ -342,25 +342,38 @@ saves and quits: the same command goes on with the next unplayed episode.";
 /// The end-of-run summary: each episode of the run directory this person
 /// played, its outcome and what the other road user intended.
 pub fn summary_lines(run_dir: &std::path::Path) -> Vec<String> {
+    let mut episodes = Vec::new();
     let path = run_dir.join(crate::rundir::ROLLOUTS);
-    let Ok(text) = std::fs::read_to_string(&path) else { return Vec::new() };
+    if crate::rundir::lines::read_rollouts(&path, |e, _| episodes.push(e)).is_err() || episodes.is_empty() {
+        return Vec::new();
+    }
     let mut out = vec![format!(
         "{:<18} {:>4} {:>6}  {:<9} {:>6}  the other road user",
         "scenario", "tier", "seed", "outcome", "reward"
     )];
-    for line in text.lines() {
-        let Ok(r) = serde_json::from_str::<crate::rundir::record::RolloutRecord>(line) else { continue };
+    for e in episodes {
         out.push(format!(
             "{:<18} {:>4} {:>6}  {:<9} {:>6.2}  {}",
-            r.scenario.name(),
-            r.tier.number(),
-            r.seed,
-            r.outcome.name(),
-            r.reward,
-            r.disposition.name()
+            e.scenario.name(),
+            e.tier.number(),
+            e.seed,
+            e.outcome.name(),
+            e.reward,
+            e.disposition.name()
         ));
     }
     out
+}
+
+/// The share of the run directory's episodes that succeeded (0 when none).
+pub fn mean_success(run_dir: &std::path::Path) -> f64 {
+    let (mut n, mut ok) = (0u32, 0u32);
+    let path = run_dir.join(crate::rundir::ROLLOUTS);
+    let _ = crate::rundir::lines::read_rollouts(&path, |e, _| {
+        n += 1;
+        ok += u32::from(e.success());
+    });
+    if n == 0 { 0.0 } else { f64::from(ok) / f64::from(n) }
 }
 
 /// The selection of a practice run: `n` seeds per cell drawn above

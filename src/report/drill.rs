@@ -13,11 +13,11 @@ use super::ReportError;
 use super::load::{Dataset, Episode};
 use crate::episode::Outcome;
 use crate::par::par_map;
+use crate::rundir::lines::{LineRef, read_records_at};
 use crate::rundir::record::RolloutRecord;
 use crate::scenario::ScenarioKind;
 use serde::Serialize;
 use std::collections::HashMap;
-use std::io::{Read, Seek, SeekFrom};
 
 /// Embedded transcript JSON, at most (the last transcript may cross it).
 pub(crate) const TRANSCRIPT_BUDGET: usize = 6_000_000;
@@ -92,20 +92,20 @@ pub(crate) fn load(data: &Dataset, chosen: &[(usize, usize)]) -> Result<Vec<Load
     let runs: Vec<RunItems> = by_run.into_iter().enumerate().filter(|(_, v)| !v.is_empty()).collect();
     let read = par_map(&runs, |(run, items)| -> Result<Vec<(usize, Option<Loaded>)>, ReportError> {
         let path = data.runs[*run].rollouts_path();
-        let io = |source| ReportError::Io { path: path.display().to_string(), source };
-        let mut file = std::fs::File::open(&path).map_err(io)?;
-        let mut sorted = items.clone();
-        sorted.sort_by_key(|&(_, m, i)| data.models[m].episodes[i].source.offset);
-        let mut out = Vec::with_capacity(sorted.len());
-        let mut buf = Vec::new();
-        for (order, m, i) in sorted {
-            let src = data.models[m].episodes[i].source;
-            buf.resize(src.len as usize, 0);
-            file.seek(SeekFrom::Start(src.offset)).map_err(io)?;
-            file.read_exact(&mut buf).map_err(io)?;
-            let record = serde_json::from_slice::<RolloutRecord>(&buf).ok();
-            out.push((order, record.map(|record| Loaded { model: m, episode: i, record })));
-        }
+        let places: Vec<LineRef> = items
+            .iter()
+            .map(|&(_, m, i)| {
+                let src = data.models[m].episodes[i].source;
+                LineRef { line: 0, offset: src.offset, len: src.len }
+            })
+            .collect();
+        let records = read_records_at(&path, &places)
+            .map_err(|source| ReportError::Io { path: path.display().to_string(), source })?;
+        let out: Vec<(usize, Option<Loaded>)> = items
+            .iter()
+            .zip(records)
+            .map(|(&(order, m, i), record)| (order, record.map(|record| Loaded { model: m, episode: i, record })))
+            .collect();
         Ok(out)
     });
     let mut all: Vec<(usize, Option<Loaded>)> = Vec::new();

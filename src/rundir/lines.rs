@@ -12,7 +12,7 @@
 //! the head (closed with `}`) is deserialized; a line that does not allow
 //! this is parsed whole.
 
-use super::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord};
+use super::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord, RolloutRecord};
 use serde::Deserialize;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
@@ -140,6 +140,26 @@ pub fn read_rollouts(
     })?;
     read.torn = torn.map(|(at, _)| at);
     Ok(read)
+}
+
+/// The whole records at `places` of a `rollouts.jsonl` (found earlier by
+/// [`read_rollouts`]), in the order given: one open, reads in file order. A
+/// place that no longer holds a readable record gives `None`.
+pub fn read_records_at(path: &Path, places: &[LineRef]) -> std::io::Result<Vec<Option<RolloutRecord>>> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut file = File::open(path)?;
+    let mut order: Vec<usize> = (0..places.len()).collect();
+    order.sort_by_key(|&k| places[k].offset);
+    let mut out: Vec<Option<RolloutRecord>> = (0..places.len()).map(|_| None).collect();
+    let mut buf = Vec::new();
+    for k in order {
+        let at = places[k];
+        buf.resize(at.len as usize, 0);
+        file.seek(SeekFrom::Start(at.offset))?;
+        file.read_exact(&mut buf)?;
+        out[k] = serde_json::from_slice::<RolloutRecord>(&buf).ok();
+    }
+    Ok(out)
 }
 
 /// `errors.jsonl`: its number of non-blank lines (a torn last one included)

@@ -34,6 +34,9 @@ pub const SCHEMA_VERSION: u32 = 3;
 pub const ROLLOUTS: &str = "rollouts.jsonl";
 pub const ERRORS: &str = "errors.jsonl";
 pub const RUN_JSON: &str = "run.json";
+/// The summary `eval` writes at the end of each invocation (JSON and Markdown).
+pub const SUMMARY_JSON: &str = "summary.json";
+pub const SUMMARY_MD: &str = "summary.md";
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunDirError {
