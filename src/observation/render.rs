@@ -15,9 +15,9 @@ fn f2(x: f64) -> String {
 }
 
 /// `format!("{:.N$}", round_to(x, N))`, written from the rounded integer
-/// `round(x * 10^N)` instead of through the float formatter (several times
-/// faster, and the scene is rendered every turn by `eval`, `serve` and
-/// `env-server`). The same text: `round_to` yields the double nearest
+/// `round(x * 10^N)` instead of through the float formatter (whose exact
+/// path, flt2dec's grisu and dragon, showed in `env-server`'s profile: the
+/// scene is rendered every turn by `eval`, `serve` and `env-server`). The same text: `round_to` yields the double nearest
 /// `k / 10^N`, whose N-decimal rendering is `k`'s digits. Values whose `k`
 /// a double cannot hold exactly (and NaN, infinities) take the formatter.
 fn fixed(x: f64, digits: i32) -> String {
