@@ -1,7 +1,7 @@
 //! The belief probe end to end: `eval --probe belief` against
 //! `serve --probe belief`, and the in-process ideal observer.
 
-use crate::serve::{Server, negotiator, scratch};
+use crate::support::{Server, negotiator, scratch};
 use negotiator::episode::{Episode, run_episode};
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::{ScenarioConfig, ScenarioKind, Tier};
@@ -10,25 +10,17 @@ use std::path::Path;
 use std::process::Command;
 
 fn eval(base_url: &str, out: &Path, run_name: &str, args: &[&str]) -> Command {
-    let mut c = negotiator();
-    c.args(["eval", "--base-url", base_url, "--model", "scripted", "--quiet", "--output"])
-        .arg(out)
-        .args(["--run-name", run_name, "-c", "8"])
-        .args(args);
+    let mut c = crate::support::eval_command(base_url, "scripted", out, run_name);
+    c.args(["--quiet", "-c", "8"]).args(args);
     c
 }
 
-fn ok(mut c: Command) {
-    let out = c.output().unwrap();
-    assert!(out.status.success(), "exit {:?}: {}", out.status.code(), String::from_utf8_lossy(&out.stderr));
+fn ok(c: Command) {
+    crate::support::ok(c);
 }
 
 fn lines(dir: &Path) -> Vec<Value> {
-    std::fs::read_to_string(dir.join("rollouts.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
+    crate::support::jsonl(&dir.join("rollouts.jsonl"))
 }
 
 fn summary_cells(dir: &Path) -> Vec<Value> {

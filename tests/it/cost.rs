@@ -3,7 +3,8 @@
 //! summary, `report`'s cost column, and `--max-cost`.
 
 use crate::providers::{Handler, Seen, expert_reply, start_mock, start_mock_on};
-use crate::serve::{negotiator, scratch};
+use crate::support::read_json;
+use crate::support::{negotiator, scratch};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -40,27 +41,13 @@ fn prices_file(dir: &Path) -> PathBuf {
 }
 
 fn eval(url: &str, model: &str, out: &Path, extra: &[&str]) -> Output {
-    let o = negotiator()
-        .args(["eval", "--base-url", url, "--model", model, "--output"])
-        .arg(out)
-        .args(["--run-name", "run", "--scenario", "yield_standoff", "-c", "2", "--max-retries", "0"])
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"), "{}", String::from_utf8_lossy(&o.stderr));
-    o
-}
-
-fn read_json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    let mut c = crate::support::eval_command(url, model, out, "run");
+    c.args(["--scenario", "yield_standoff", "-c", "2", "--max-retries", "0"]).args(extra);
+    crate::support::run(c)
 }
 
 fn lines(out: &Path) -> Vec<Value> {
-    std::fs::read_to_string(out.join("run/rollouts.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
+    crate::support::jsonl(&out.join("run/rollouts.jsonl"))
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -306,7 +293,7 @@ fn a_dry_run_sends_nothing_writes_nothing_and_prints_the_exact_first_request() {
 
 #[test]
 fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_reports() {
-    let server = crate::serve::Server::start(&["--policy", "expert"]);
+    let server = crate::support::Server::start(&["--policy", "expert"]);
     let out = scratch("dry-run-exact");
     let args = ["--model", "expert", "--scenario", "all", "--tier", "all", "-n", "3", "-c", "4", "--run-name", "run"];
     let dry = |extra: &[&str]| {

@@ -7,7 +7,7 @@
 //! - every relative link points at a file that exists;
 //! - the README's ```` ```sh runnable ```` block runs, against `serve`.
 
-use super::serve::{Server, negotiator, scratch};
+use super::support::{Server, negotiator, scratch};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {

@@ -2,7 +2,7 @@
 //! WebSocket connections (the Python clients' checks are in
 //! `scripts/openenv_check.sh`).
 
-use super::serve::Server;
+use super::support::Server;
 use futures_util::{SinkExt, StreamExt};
 use negotiator::action::{Action, Maneuver};
 use negotiator::episode::run_episode;
@@ -211,7 +211,7 @@ fn bad_flags_are_one_line_usage_errors() {
         &["env-server", "--session-timeout", "nan"],
         &["env-server", "--max-message-bytes", "10"],
     ] {
-        let out = super::serve::negotiator().args(args).output().unwrap();
+        let out = super::support::negotiator().args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(err.trim().lines().count(), 1, "{err}");

@@ -3,47 +3,21 @@
 //! produce. Sizes are small so the suite stays fast on two cores; the
 //! full-size figures come from scripts/bench_eval.sh.
 
-use crate::serve::{Server, negotiator, scratch};
+use crate::support::{Server, negotiator, scratch};
+use crate::support::{ok, run};
 use negotiator::episode::{Outcome, run_episode};
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::{ScenarioConfig, ScenarioKind, Tier};
 use serde_json::Value;
 use std::collections::HashSet;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::Duration;
 
 fn eval(base_url: &str, out: &Path, args: &[&str]) -> Command {
-    let mut c = negotiator();
-    c.args(["eval", "--base-url", base_url, "--model", "scripted", "--quiet", "--output"])
-        .arg(out)
-        .args(["--run-name", "run", "--backoff-base-ms", "20", "--backoff-max", "0.5"])
-        .args(args);
+    let mut c = crate::support::eval_command(base_url, "scripted", out, "run");
+    c.args(["--quiet", "--backoff-base-ms", "20", "--backoff-max", "0.5"]).args(args);
     c
-}
-
-fn run(mut c: Command) -> Output {
-    let out = c.output().unwrap();
-    assert!(
-        !String::from_utf8_lossy(&out.stderr).contains("panicked"),
-        "panic: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-fn ok(c: Command) -> Output {
-    let out = run(c);
-    assert!(out.status.success(), "exit {:?}: {}", out.status.code(), String::from_utf8_lossy(&out.stderr));
-    out
-}
-
-fn lines(dir: &Path) -> Vec<Value> {
-    std::fs::read_to_string(dir.join("run/rollouts.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
 }
 
 fn keys(lines: &[Value]) -> Vec<(String, u64, u64, u64)> {
@@ -65,6 +39,10 @@ fn assert_one_line_per_key(lines: &[Value], expected: usize) {
     let unique: HashSet<_> = k.iter().collect();
     assert_eq!(unique.len(), k.len(), "duplicate keys");
     assert_eq!(k.len(), expected);
+}
+
+fn lines(dir: &Path) -> Vec<Value> {
+    crate::support::jsonl(&dir.join("run/rollouts.jsonl"))
 }
 
 fn cells(dir: &Path) -> Value {
@@ -313,34 +291,13 @@ fn a_token_budget_stops_early_and_a_rerun_finishes() {
 
 type Handler = std::sync::Arc<dyn Fn(usize, &axum::http::HeaderMap) -> axum::response::Response + Send + Sync>;
 
-/// An axum server on a background thread; `handler(i, headers)` answers
-/// the i-th chat request.
+/// `support::mock` with a handler of the request's index and headers.
 fn mock(handler: Handler) -> String {
-    use axum::routing::post;
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
-        rt.block_on(async move {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-            tx.send(listener.local_addr().unwrap().port()).unwrap();
-            let count = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
-            let app = axum::Router::new().route(
-                "/v1/chat/completions",
-                post(move |headers: axum::http::HeaderMap| {
-                    let i = count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let handler = handler.clone();
-                    async move { handler(i, &headers) }
-                }),
-            );
-            axum::serve(listener, app).await.unwrap();
-        });
-    });
-    format!("http://127.0.0.1:{}/v1", rx.recv().unwrap())
+    crate::support::mock(std::sync::Arc::new(move |r: &crate::support::Request| handler(r.index, &r.headers)))
 }
 
 fn json_response(status: u16, body: Value) -> axum::response::Response {
-    use axum::response::IntoResponse;
-    (axum::http::StatusCode::from_u16(status).unwrap(), axum::Json(body)).into_response()
+    crate::support::respond(status, body)
 }
 
 #[test]

@@ -3,87 +3,21 @@
 //! unreachable hosts, oversized or malformed replies, closed pipes. Each
 //! test drives the binary against a mock server started inside the test.
 
-use crate::serve::{Server, negotiator, scratch};
+pub use crate::support::{Request, mock, reply, respond, run, stderr, stdout};
+use crate::support::{Server, jsonl, negotiator, scratch};
 use serde_json::{Value, json};
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
-
-/// What a mock sees of one chat request.
-pub struct Request {
-    /// 0-based index of the request, in arrival order.
-    pub index: usize,
-    pub headers: axum::http::HeaderMap,
-    pub body: Value,
-}
-
-pub type Handler = Arc<dyn Fn(&Request) -> axum::response::Response + Send + Sync>;
-
-/// An axum server on a background thread answering
-/// `POST /v1/chat/completions` with `handler`; returns its base URL.
-pub fn mock(handler: Handler) -> String {
-    use axum::routing::post;
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
-        rt.block_on(async move {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-            tx.send(listener.local_addr().unwrap().port()).unwrap();
-            let count = Arc::new(AtomicUsize::new(0));
-            let app = axum::Router::new().route(
-                "/v1/chat/completions",
-                post(move |headers: axum::http::HeaderMap, body: axum::body::Bytes| {
-                    let index = count.fetch_add(1, SeqCst);
-                    let handler = handler.clone();
-                    async move {
-                        let body = serde_json::from_slice(&body).unwrap_or(Value::Null);
-                        handler(&Request { index, headers, body })
-                    }
-                }),
-            );
-            axum::serve(listener, app).await.unwrap();
-        });
-    });
-    format!("http://127.0.0.1:{}/v1", rx.recv().unwrap())
-}
-
-pub fn respond(status: u16, body: Value) -> axum::response::Response {
-    use axum::response::IntoResponse;
-    (axum::http::StatusCode::from_u16(status).unwrap(), axum::Json(body)).into_response()
-}
-
-/// A 200 whose content is `content`.
-pub fn reply(content: &str) -> axum::response::Response {
-    respond(200, json!({"choices": [{"message": {"role": "assistant", "content": content}, "finish_reason": "stop"}]}))
-}
-
 pub const STOP: &str = r#"{"maneuver":"stop","acceleration":0}"#;
 
 /// `eval --base-url URL --model scripted --output OUT --run-name run` with
 /// fast retries; `--quiet` is left to the caller.
 pub fn eval(base_url: &str, out: &Path, args: &[&str]) -> Command {
-    let mut c = negotiator();
-    c.args(["eval", "--base-url", base_url, "--model", "scripted", "--output"])
-        .arg(out)
-        .args(["--run-name", "run", "--backoff-base-ms", "10", "--backoff-max", "0.05", "--progress-interval", "0.2"])
-        .args(args);
+    let mut c = crate::support::eval_command(base_url, "scripted", out, "run");
+    c.args(["--backoff-base-ms", "10", "--backoff-max", "0.05", "--progress-interval", "0.2"]).args(args);
     c
-}
-
-pub fn run(mut c: Command) -> Output {
-    let out = c.output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!err.contains("panicked") && !err.contains("RUST_BACKTRACE"), "panic: {err}");
-    out
-}
-
-pub fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-pub fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 /// Every file under `dir`, recursively, as lossy text.
@@ -117,11 +51,7 @@ fn assert_nowhere(needles: &[&str], dir: &Path, streams: &[&str]) {
 }
 
 pub fn rollout_lines(out: &Path) -> Vec<Value> {
-    std::fs::read_to_string(out.join("run/rollouts.jsonl"))
-        .unwrap_or_default()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
+    jsonl(&out.join("run/rollouts.jsonl"))
 }
 
 pub fn run_json(out: &Path) -> Value {

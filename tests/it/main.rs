@@ -12,3 +12,4 @@ mod providers;
 mod report;
 mod run_v0;
 mod serve;
+mod support;

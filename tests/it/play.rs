@@ -3,7 +3,7 @@
 //! run directory `eval`'s schema reads, resume after a quit, and feed
 //! `report`.
 
-use super::serve::{negotiator, scratch};
+use super::support::{negotiator, scratch};
 use negotiator::rundir::record::RolloutRecord;
 use std::io::Write;
 use std::path::Path;

@@ -9,7 +9,7 @@
 //! both-effort-and-budget refusal, Anthropic's thinking constraints through
 //! the compatibility layer), the mock words it after the rule the docs state.
 
-use crate::serve::{negotiator, scratch};
+use crate::support::{negotiator, scratch};
 use negotiator::policy::PolicyKind;
 use serde_json::{Value, json};
 use std::path::Path;

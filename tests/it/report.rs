@@ -4,7 +4,7 @@
 //! and `eval`, including the offline HTML rendered by headless Chromium,
 //! and the paper style's figures (text size at print width, titles, PDFs).
 
-use crate::serve::{Server, negotiator, scratch};
+use crate::support::{Server, negotiator, scratch};
 use negotiator::episode::Outcome;
 use negotiator::export::Format;
 use negotiator::report::reference::{ReferenceCell, References};

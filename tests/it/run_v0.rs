@@ -2,7 +2,7 @@
 //! the run-directory schema was versioned): `report` must read them and give
 //! byte-identical output to the golden files in `expected/`.
 
-use crate::serve::{negotiator, scratch};
+use crate::support::{negotiator, scratch};
 use std::path::Path;
 
 const FIXTURE: &str = "tests/fixtures/run_v0";
@@ -81,7 +81,7 @@ fn the_v0_fixture_loads_with_every_episode_and_no_missing_one() {
 /// beside it, and the old run, are read by one `report`.
 #[test]
 fn eval_refuses_a_changed_v0_run_and_report_reads_old_and_new_runs() {
-    let server = crate::serve::Server::start(&["--policy", "expert"]);
+    let server = crate::support::Server::start(&["--policy", "expert"]);
     let root = scratch("resume-v0");
     copy_run("expert", &root.join("expert"));
     let before = std::fs::read(root.join("expert/rollouts.jsonl")).unwrap();

@@ -1,65 +1,6 @@
-//! `negotiator serve` as a child process, plus helpers the eval tests share.
+//! `negotiator serve` as a child process.
 
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-
-pub fn negotiator() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_negotiator"))
-}
-
-/// A fresh directory under the target's test scratch space.
-pub fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("it-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// `negotiator serve --port 0 ARGS`, killed on drop.
-pub struct Server {
-    child: Child,
-    pub port: u16,
-}
-
-impl Server {
-    pub fn start(args: &[&str]) -> Server {
-        Server::spawn("serve", args, "/v1")
-    }
-
-    /// `negotiator SUBCOMMAND --port 0 ARGS`, its port read from the first
-    /// line `listening on http://127.0.0.1:PORT{suffix}`.
-    pub fn spawn(subcommand: &str, args: &[&str], suffix: &str) -> Server {
-        let mut child = negotiator()
-            .args([subcommand, "--port", "0"])
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap_or_else(|e| panic!("start negotiator {subcommand}: {e}"));
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
-        let port = line
-            .trim()
-            .strip_prefix("listening on http://127.0.0.1:")
-            .and_then(|r| r.strip_suffix(suffix))
-            .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
-            .parse()
-            .unwrap();
-        Server { child, port }
-    }
-
-    pub fn base_url(&self) -> String {
-        format!("http://127.0.0.1:{}/v1", self.port)
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+use super::support::{Server, negotiator};
 
 fn post(port: u16, body: &serde_json::Value) -> (u16, serde_json::Value) {
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
