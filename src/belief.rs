@@ -19,6 +19,7 @@
 //! ([`crate::scenario::Disposition::ego_should_go`]).
 
 use crate::action::Maneuver;
+pub use crate::noise::{NoisyReading, noise_cdf, posterior_true, reading_likelihood, readings_llr};
 use crate::scenario::ScenarioKind;
 use serde::{Deserialize, Serialize};
 
@@ -100,97 +101,6 @@ pub fn check_neutral(text: &str) -> Result<(), Vec<&'static str>> {
     let lower = text.to_lowercase();
     let found: Vec<&'static str> = LEAK_WORDS.iter().copied().filter(|w| lower.contains(w)).collect();
     if found.is_empty() { Ok(()) } else { Err(found) }
-}
-
-// ---------------------------------------------------------------------------
-// The ideal observer on a noisy tier
-
-/// Digits the scene text prints every reading with.
-const PRINTED_DIGITS: i32 = 1;
-
-/// One reading shown through observation noise: the value drawn (before
-/// printing), the truth behind it, and the noise model that drew it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NoisyReading {
-    pub shown: f64,
-    pub truth: f64,
-    /// Standard deviation of the additive noise (the standardised
-    /// Irwin-Hall noise of [`crate::rng::EpisodeRng::standard_noise`]).
-    pub sd: f64,
-    /// Shown values are clamped at this floor (speeds at 0), if any.
-    pub floor: Option<f64>,
-}
-
-/// CDF of the standardised Irwin-Hall noise (the sum of 12 uniforms minus
-/// 6), exact: F(x) = 1/12! sum_k (-1)^k C(12,k) (x+6-k)^12 over k <= x+6.
-/// The upper half uses the symmetry F(x) = 1 - F(-x), which keeps the
-/// alternating sum short and free of cancellation.
-pub fn noise_cdf(x: f64) -> f64 {
-    const N: i32 = 12;
-    if x.is_nan() {
-        return f64::NAN;
-    }
-    if x > 0.0 {
-        return 1.0 - noise_cdf(-x);
-    }
-    let s = x + 6.0;
-    if s <= 0.0 {
-        return 0.0;
-    }
-    let factorial: f64 = (1..=N).map(f64::from).product();
-    let mut binom = 1.0;
-    let mut sum = 0.0;
-    for k in 0..=(s.floor() as i32).min(N) {
-        if k > 0 {
-            binom *= f64::from(N - k + 1) / f64::from(k);
-        }
-        let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
-        sum += sign * binom * (s - f64::from(k)).powi(N);
-    }
-    (sum / factorial).clamp(0.0, 1.0)
-}
-
-/// Probability of the *printed* reading given a truth: the noise mass over
-/// the printed value's rounding bin (plus the clamped mass when the
-/// printed value is the floor). Exact for the simulator's noise; the only
-/// approximation is floating point.
-pub fn reading_likelihood(printed: f64, truth: f64, sd: f64, floor: Option<f64>) -> f64 {
-    let half = 0.5 * 10f64.powi(-PRINTED_DIGITS);
-    let (lo, hi) = (printed - half, printed + half);
-    if sd <= 0.0 {
-        return f64::from(u8::from((lo..hi).contains(&truth)));
-    }
-    let cdf = |v: f64| noise_cdf((v - truth) / sd);
-    match floor {
-        Some(f) if printed <= f + half => cdf(hi),
-        _ => cdf(hi) - cdf(lo),
-    }
-}
-
-/// The log-likelihood ratio one turn's readings add for the true
-/// disposition against the other: `shown` and `truth` from the real world,
-/// `other_truth` from the twin. +infinity when the other disposition could
-/// not have produced what was printed.
-pub fn readings_llr(real: &[NoisyReading], twin: &[NoisyReading]) -> f64 {
-    let mut llr = 0.0;
-    for (r, t) in real.iter().zip(twin) {
-        let printed = crate::observation::round_to(r.shown, PRINTED_DIGITS);
-        let l_true = reading_likelihood(printed, r.truth, r.sd, r.floor);
-        let l_other = reading_likelihood(printed, t.truth, r.sd, r.floor);
-        if l_other <= 0.0 {
-            return f64::INFINITY;
-        }
-        if l_true > 0.0 {
-            llr += (l_true / l_other).ln();
-        }
-    }
-    llr
-}
-
-/// Posterior probability of the true disposition from a log-likelihood
-/// ratio and the 0.5 prior.
-pub fn posterior_true(llr: f64) -> f64 {
-    if llr == f64::INFINITY { 1.0 } else { 1.0 / (1.0 + (-llr).exp()) }
 }
 
 // ---------------------------------------------------------------------------

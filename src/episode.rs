@@ -300,7 +300,7 @@ impl Episode {
     /// noisy readings update the ideal observer.
     fn compare_twin(&mut self, twin_scene: crate::observation::Scene) {
         let Some(twin) = self.twin.as_ref() else { return };
-        self.llr += crate::belief::readings_llr(self.world.noisy_readings(), twin.noisy_readings());
+        self.llr += crate::noise::readings_llr(self.world.noisy_readings(), twin.noisy_readings());
         let twin_obs = Observation { scene: twin_scene, ..self.observation };
         if twin_obs.rounded() != self.observation.rounded() {
             self.reveal_now();
@@ -331,7 +331,7 @@ impl Episode {
     /// Privileged: the ideal observer's belief, for the observation about
     /// to be shown, that the other road user lets the ego pass first.
     pub fn ideal_belief(&self) -> f64 {
-        let p_true = if self.certain { 1.0 } else { crate::belief::posterior_true(self.llr) };
+        let p_true = if self.certain { 1.0 } else { crate::noise::posterior_true(self.llr) };
         if self.disposition.ego_should_go() { p_true } else { 1.0 - p_true }
     }
 

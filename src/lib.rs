@@ -9,7 +9,9 @@
 //! - [`action`]: the action and its protective parser;
 //! - [`policy`]: the scripted baselines;
 //! - [`episode`]: the environment loop;
-//! - [`belief`]: the belief probe, the ideal observer and the belief metrics;
+//! - [`belief`]: the belief probe and the belief metrics;
+//! - [`noise`]: the observation noise model and the ideal observer's
+//!   likelihoods (a leaf the worlds and the episode share);
 //! - [`grading`]: reward, decision correctness, diagnostics;
 //! - [`rng`]: the seeded per-episode random streams;
 //! - `hash`: SplitMix64 and FNV-1a, the only hash functions;
@@ -47,6 +49,7 @@ pub mod export;
 pub mod grading;
 pub(crate) mod hash;
 pub mod llm;
+pub mod noise;
 pub mod observation;
 pub(crate) mod par;
 pub(crate) mod play;

@@ -76,7 +76,7 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::belief::NoisyReading;
+use crate::noise::NoisyReading;
 use crate::observation::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};

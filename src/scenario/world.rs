@@ -61,7 +61,7 @@ pub trait World {
     /// The readings the last [`World::observe`] drew through observation
     /// noise, in a fixed order (empty for a world observed without noise).
     /// The ideal observer compares them with the other disposition's truth.
-    fn noisy_readings(&self) -> &[crate::belief::NoisyReading] {
+    fn noisy_readings(&self) -> &[crate::noise::NoisyReading] {
         &[]
     }
     /// The size of the noise this world's readings carry, as the scene
