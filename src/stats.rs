@@ -449,7 +449,9 @@ pub fn seed_for(base: u64, label: &str) -> u64 {
 
 /// Seed of a (scenario, tier) cell's success interval: `eval`'s summary
 /// (base 0) and `report` use this one seed, so they agree digit for digit.
-pub fn cell_seed(base: u64, scenario: crate::scenario::ScenarioKind, tier: crate::scenario::Tier) -> u64 {
+/// `scenario` is the scenario's name and `tier` its number (statistics know
+/// no scenario types).
+pub fn cell_seed(base: u64, scenario: &str, tier: u8) -> u64 {
     seed_for(base, &format!("{scenario}/{tier}"))
 }
 

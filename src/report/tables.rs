@@ -144,7 +144,7 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
         }
         let values: Vec<f64> = su.iter().map(|u| u.value()).collect();
         let seed = match tiers {
-            [t] => cell_seed(base, s, *t),
+            [t] => cell_seed(base, s.name(), t.number()),
             _ => seed_for(base, &format!("leaderboard/{s}/{tiers_key}")),
         };
         let eps: Vec<&Episode> = su.iter().flat_map(|u| &m.episodes[u.start..u.end]).collect();
@@ -367,7 +367,7 @@ pub(crate) fn tier_rows(models: &[&ModelData], refs: &References, resamples: usi
             tier: t,
             seeds: us.len(),
             episodes: eps.len(),
-            success: mean_ci(&values, resamples, cell_seed(base, s, t)),
+            success: mean_ci(&values, resamples, cell_seed(base, s.name(), t.number())),
             collision: rate(&eps, Outcome::Collision),
             timeout: rate(&eps, Outcome::Timeout),
             reward: mean_of(&eps, |e| e.reward),
