@@ -291,7 +291,7 @@ impl Side {
                     }
                 }
                 match key.code {
-                    KeyCode::Char('q') | KeyCode::Char(_) if ctrl_c || key.code == KeyCode::Char('q') => {
+                    _ if ctrl_c || key.code == KeyCode::Char('q') => {
                         quitting = true;
                         unanswered.extend(pending.take());
                         self.interrupt.notify_one();
