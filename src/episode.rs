@@ -487,12 +487,23 @@ impl Episode {
     /// Grade the finished (or abandoned) episode. An episode stopped before
     /// its end is graded as a timeout at the current state.
     pub fn finish(self) -> EpisodeRecord {
-        self.record()
+        let (outcome, grades) = self.grades();
+        EpisodeRecord {
+            spec: self.spec,
+            disposition: self.disposition,
+            outcome,
+            grades,
+            timing: self.timing,
+            decisions: self.decisions,
+            trajectory: self.trajectory,
+            stated_beliefs: Vec::new(),
+        }
     }
 
-    /// [`Episode::finish`] without giving the episode up (for a front end
-    /// that keeps serving it, such as `env-server`'s state after the end).
-    pub fn record(&self) -> EpisodeRecord {
+    /// The outcome and grades [`Episode::finish`] records, without giving
+    /// the episode up (for a front end that keeps serving it, such as
+    /// `env-server`).
+    pub fn grades(&self) -> (Outcome, Grades) {
         let outcome = self.outcome.unwrap_or(Outcome::Timeout);
         let tr = &self.tracker;
         let span = self.goal_s - self.start_s;
@@ -527,16 +538,7 @@ impl Episode {
             decision_correctness: grading::decision_correctness(self.disposition, outcome, self.timing.choice),
             diagnostics,
         };
-        EpisodeRecord {
-            spec: self.spec,
-            disposition: self.disposition,
-            outcome,
-            grades,
-            timing: self.timing,
-            decisions: self.decisions.clone(),
-            trajectory: self.trajectory.clone(),
-            stated_beliefs: Vec::new(),
-        }
+        (outcome, grades)
     }
 }
 

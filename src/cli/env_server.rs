@@ -59,10 +59,7 @@ impl EnvServerArgs {
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let state = Arc::new(EnvServerState::new(config));
         let served = runtime.block_on(async {
-            let listener = tokio::net::TcpListener::bind((self.host.as_str(), self.port)).await?;
-            let addr = listener.local_addr()?;
-            let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
-            crate::redact::term::out(&format!("listening on http://{host}:{}\n", addr.port()));
+            let listener = super::bind_and_announce(&self.host, self.port, "").await?;
             crate::envserver::run(listener, state.clone()).await
         });
         served.map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;

@@ -126,3 +126,14 @@ where
 /// on any machine: a larger -n is a typo, refused before anything is
 /// allocated.
 pub const MAX_EPISODES: u64 = 1_000_000;
+
+/// Bind a server's address and print `listening on http://HOST:PORT{path}`
+/// on stdout (the line scripts and tests read the port from; port 0 picks
+/// a free one).
+async fn bind_and_announce(host: &str, port: u16, path: &str) -> std::io::Result<tokio::net::TcpListener> {
+    let listener = tokio::net::TcpListener::bind((host, port)).await?;
+    let addr = listener.local_addr()?;
+    let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
+    crate::redact::term::out(&format!("listening on http://{host}:{}{path}\n", addr.port()));
+    Ok(listener)
+}

@@ -102,10 +102,7 @@ impl ServeArgs {
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let state = runtime
             .block_on(async {
-                let listener = tokio::net::TcpListener::bind((self.host.as_str(), self.port)).await?;
-                let addr = listener.local_addr()?;
-                let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
-                crate::redact::term::out(&format!("listening on http://{host}:{}/v1\n", addr.port()));
+                let listener = super::bind_and_announce(&self.host, self.port, "/v1").await?;
                 crate::serve::serve(listener, config).await
             })
             .map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;

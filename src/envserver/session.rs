@@ -12,7 +12,7 @@
 
 use super::features::features;
 use crate::action::{Action, ActionParseError, ParsedAction, parse_action};
-use crate::episode::{Episode, EpisodeRecord};
+use crate::episode::Episode;
 use crate::eval::prompt::SYSTEM_PROMPT;
 use crate::observation::{Observation, render_scene};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -211,18 +211,16 @@ pub(crate) fn read_action(data: &Value) -> Result<ParsedAction, SessionError> {
             msg: "expected an object: {\"reply\": text} or the action's fields".to_string(),
         }]));
     };
-    let mut rest: Map<String, Value> =
-        fields.iter().filter(|(k, _)| *k != "metadata").map(|(k, v)| (k.clone(), v.clone())).collect();
-    let text = match rest.remove("reply") {
+    let text = match fields.get("reply") {
         Some(Value::String(reply)) => {
-            if let Some(extra) = rest.keys().next() {
+            if let Some(extra) = fields.keys().find(|k| !matches!(k.as_str(), "reply" | "metadata")) {
                 return Err(SessionError::Invalid(vec![FieldError::new(
                     "extra_forbidden",
                     extra,
                     "send either reply or the action's own fields, not both",
                 )]));
             }
-            reply
+            reply.clone()
         }
         Some(other) => {
             return Err(SessionError::Invalid(vec![FieldError::new(
@@ -231,7 +229,14 @@ pub(crate) fn read_action(data: &Value) -> Result<ParsedAction, SessionError> {
                 format!("expected the reply as a string, got {other}"),
             )]));
         }
-        None => Value::Object(rest).to_string(),
+        // The action's own fields, as the reply text a model would send
+        // (OpenEnv's `metadata` left out).
+        None if fields.contains_key("metadata") => {
+            let mut rest = fields.clone();
+            rest.remove("metadata");
+            Value::Object(rest).to_string()
+        }
+        None => data.to_string(),
     };
     if text.len() > MAX_REPLY_BYTES {
         return Ok(ParsedAction {
@@ -298,7 +303,7 @@ pub(crate) struct StepReply {
 }
 
 /// The state a client can read at any time. Nothing hidden before `done`.
-#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[derive(Debug, Clone, Default, Serialize, JsonSchema)]
 pub(crate) struct EnvState {
     /// The current episode's id (null before the first reset).
     pub episode_id: Option<String>,
@@ -374,9 +379,9 @@ impl Session {
         let done = live.episode.step(parsed.action).is_some();
         let mut reward = Some(0.0);
         if done {
-            let record = live.episode.record();
-            reward = Some(record.grades.reward);
-            live.graded = Some(grades(&record, live.parse_errors));
+            let graded = grades(&live.episode, live.parse_errors);
+            reward = graded.get("reward").and_then(Value::as_f64);
+            live.graded = Some(graded);
         }
         let errors = parsed.errors.iter().map(ToString::to_string).collect();
         let observation = observe(live, false, errors);
@@ -384,21 +389,7 @@ impl Session {
     }
 
     pub fn state(&self) -> EnvState {
-        let Some(live) = self.live.as_ref() else {
-            return EnvState {
-                episode_id: None,
-                step_count: 0,
-                scenario: None,
-                tier: None,
-                seed: None,
-                turn: None,
-                turn_budget: None,
-                done: false,
-                parse_errors: 0,
-                outcome: None,
-                disposition: None,
-            };
-        };
+        let Some(live) = self.live.as_ref() else { return EnvState::default() };
         let spec = live.episode.spec();
         let o = live.episode.observation();
         let over = live.graded.is_some();
@@ -444,14 +435,14 @@ fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservatio
 
 /// The terminal metadata: the outcome, the grades, the evidence timing and
 /// now the disposition.
-fn grades(record: &EpisodeRecord, parse_errors: u32) -> Map<String, Value> {
-    let t = &record.timing;
-    let g = &record.grades;
+fn grades(episode: &Episode, parse_errors: u32) -> Map<String, Value> {
+    let (outcome, g) = episode.grades();
+    let t = episode.timing();
     let value = json!({
-        "outcome": record.outcome.name(),
+        "outcome": outcome.name(),
         "reward": g.reward,
         "decision_correctness": g.decision_correctness,
-        "disposition": record.disposition.name(),
+        "disposition": episode.disposition().name(),
         "evidence_turn": t.evidence_turn,
         "commitment_turn": t.commitment_turn,
         "choice": t.choice,
