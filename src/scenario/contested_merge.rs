@@ -34,7 +34,9 @@
 //!   room slows further. Once its easing off is on show, the bluffer closes
 //!   the gap hard as soon as an ego ahead of it, not braking, is due at the
 //!   merge point within `commit_horizon_s`; an ego that waits for a car
-//!   slower than the floor (or falls in behind) is safe;
+//!   slower than the floor (or falls in behind) is safe. The bait is short
+//!   (`BAIT_EASE_MPS`), so the close begins early enough for a reader who
+//!   sees it a decision late to drop back behind both lane cars;
 //! - who goes first is settled by the order of entry, not by the ego's
 //!   point of no return (`order_settles_choice`): side by side, an ego that
 //!   can no longer stop short of the merge point can still fall in behind;
@@ -105,8 +107,11 @@ const DOOR_HEADWAY_S: f64 = 0.1;
 const DOOR_GAP_GAIN: f64 = 1.0;
 const DOOR_SPEED_GAIN: f64 = 2.0;
 /// A tier-3 bluffer has shown its bait once it has eased off this much
-/// below its cruise (m/s).
-const BAIT_EASE_MPS: f64 = 1.5;
+/// below its cruise (m/s): a third of a second of easing off, so that its
+/// close (the evidence) starts early in the approach. With a bait of
+/// 1.5 m/s the close came half a second later, and a reader one decision
+/// late could no longer drop back behind the platoon in time (0.84).
+const BAIT_EASE_MPS: f64 = 1.0;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -7,8 +7,8 @@
 //! pedestrian, an invitation.
 //!
 //! Until the reveal both dispositions move identically: same start, same
-//! walking speed, same stop at the kerb (tier 3). Every reaction is a
-//! function of the ego's kinematic state only (`EgoApproach`).
+//! walking speed (tiers 1 and 3), the same wait at the kerb (tier 2). Every
+//! reaction is a function of the ego's kinematic state only (`EgoApproach`).
 //!
 //! Tiers (all timings drawn per seed and tied to the ego's own full-throttle
 //! arrival at the crossing line, `t_race`):
@@ -17,12 +17,19 @@
 //!   decelerates and stops at the kerb (the cue).
 //! - tier 2: both wait at the kerb; the crosser steps out late and briskly,
 //!   `tier2.step_lead_s` before `t_race` (less reaction time).
-//! - tier 3: both walk to the kerb and stop; the crosser then darts (2.5 m/s)
-//!   the moment the ego's motion shows it will reach the line within
-//!   `tier3.dart_horizon_s` at its current speed (or when its long linger
-//!   runs out). A car that keeps a pace from which it can still stop after
-//!   seeing the dart, and goes only once it is due so soon that a crosser
-//!   would already have darted, survives it.
+//! - tier 3 (pause-then-dart): both walk toward the kerb and both stop. The
+//!   feinter stops back from the edge, as on tier 1 (the tell, early); the
+//!   crosser walks on to the kerb's edge (`tier3.crosser_stop_m`) and
+//!   pauses there: at rest, it looks like a pedestrian waiting. It darts
+//!   (2.5 m/s) the moment the ego's motion shows it will reach the line
+//!   within `tier3.dart_horizon_s` at its current speed, which is inside
+//!   any stopping distance: a car that took the pause for a wait is hit.
+//!   A car that gives way to it (not going, by the measure below, for
+//!   `tier3.invite_s`) invites it across, and its long linger ends the
+//!   pause otherwise. The bite is the misleading pause, not a reaction
+//!   time: the tell (where it stopped) comes 2.6-3.2 s before a
+//!   full-throttle arrival, so a reader two decisions late still gives way
+//!   in time.
 //!
 //! Why each blind play loses (one that never looks at the pedestrian):
 //! - racing: the crosser is in the ego's path when a full-throttle ego
@@ -38,7 +45,9 @@
 //!   approach, stop-and-go, triggering the dart and then braking): the
 //!   feinter's patience is short (cumulative from t = 0), so it steps in
 //!   (after standing `look_s` at the kerb) and is in the ego's path by the
-//!   time the crosser would have cleared it or the dart would have passed.
+//!   time the crosser would have cleared it or the dart would have passed;
+//!   on tier 3 hanging back also invites a crosser at the edge across
+//!   first, and the feinter follows it before the car can go.
 //! - outwaiting both: the feinter's own passage (stepping in only after
 //!   `look_s`, then walking slowly in front of a stopped car), and in tier 3
 //!   the crosser's long linger before an untriggered dart, end later than
@@ -54,9 +63,11 @@
 //! so that outwaiting it still does not fit. The tier-2 crosser steps out
 //! early enough (1.7-1.9 s before a full-throttle arrival) for a reader two
 //! decisions late to give way. Tier 3 keeps 18 decisions (a longer budget
-//! lets one blind schedule in five outwait it), and its dart (triggered
-//! 1.35-1.45 s before the car would arrive) does not yet leave a late
-//! reader room: see `validate`'s late-reader line.
+//! lets one blind schedule in five outwait it): a crosser at the edge that
+//! a car gives way to crosses within a second of being invited (0.3-0.6 s
+//! of the car visibly giving way), so a reader two decisions late still
+//! finishes. The tier-3 dart (triggered 1.2-1.3 s before the car would
+//! arrive) is a reaction-time trap only for a car that ignored the tell.
 //!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
@@ -161,9 +172,12 @@ pub struct PedTier2 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedTier3 {
-    /// Both reach the kerb this long (s) before a full-throttle arrival,
-    /// and stop there.
+    /// Both reach the feinter's stop this long (s) before a full-throttle
+    /// arrival; the feinter stops there, the crosser walks on to ...
     pub kerb_lead_s: Range,
+    /// ... the kerb's edge, where it stops too (lateral, m): a step nearer
+    /// the road than a pedestrian who waits for cars.
+    pub crosser_stop_m: f64,
     /// The crosser darts after lingering this long (s) at the kerb ...
     pub linger_s: Range,
     /// ... or as soon as a moving, not-stopping ego is due at the crossing
@@ -171,6 +185,10 @@ pub struct PedTier3 {
     pub dart_horizon_s: Range,
     pub dart_reaction_s: f64,
     pub dart_speed_mps: f64,
+    /// A crosser at the edge takes its turn once the car, still short of
+    /// the line, has been giving way (not going, as a waiting pedestrian
+    /// judges it) for this long (s): a car that slows for it invites it.
+    pub invite_s: Range,
     pub patience_s: Range,
 }
 
@@ -193,6 +211,8 @@ impl PedestrianParams {
         c.range_within("tier2.step_out_speed_mps", self.tier2.step_out_speed_mps, 0.3, 4.0)?;
         c.range_within("tier2.patience_s", self.tier2.patience_s, 0.0, 20.0)?;
         c.range_within("tier3.kerb_lead_s", self.tier3.kerb_lead_s, 0.0, 10.0)?;
+        c.within("tier3.crosser_stop_m", self.tier3.crosser_stop_m, b.kerb_stop_m, 0.0)?;
+        c.range_within("tier3.invite_s", self.tier3.invite_s, 0.0, 5.0)?;
         c.range_within("tier3.linger_s", self.tier3.linger_s, 0.0, 30.0)?;
         c.range_within("tier3.dart_horizon_s", self.tier3.dart_horizon_s, 0.0, 5.0)?;
         c.within("tier3.dart_reaction_s", self.tier3.dart_reaction_s, 0.0, 2.0)?;
@@ -232,6 +252,10 @@ pub struct PedestrianWorld {
     linger: f64,
     dart_horizon: f64,
     dart_at: Option<f64>,
+    /// Tier 3: how long the car has been giving way to a crosser at the
+    /// edge (s, continuous), and how long that takes to invite it.
+    invited_for: f64,
+    invite: f64,
     revealed: bool,
     history: History,
 }
@@ -245,14 +269,20 @@ impl PedestrianWorld {
         let walk = b.walk_speed_mps.sample(geometry);
         let give_up_speed = b.give_up_speed_mps.sample(geometry);
         let look = b.look_s.sample(geometry);
-        let (lead, patience, step_speed, linger, dart_horizon) = match tier {
-            Tier::T1 => {
-                (params.tier1.kerb_lead_s.sample(geometry), params.tier1.patience_s.sample(geometry), walk, 0.0, 0.0)
-            }
+        let (lead, patience, step_speed, linger, dart_horizon, invite) = match tier {
+            Tier::T1 => (
+                params.tier1.kerb_lead_s.sample(geometry),
+                params.tier1.patience_s.sample(geometry),
+                walk,
+                0.0,
+                0.0,
+                0.0,
+            ),
             Tier::T2 => (
                 params.tier2.step_lead_s.sample(geometry),
                 params.tier2.patience_s.sample(geometry),
                 params.tier2.step_out_speed_mps.sample(geometry),
+                0.0,
                 0.0,
                 0.0,
             ),
@@ -262,6 +292,7 @@ impl PedestrianWorld {
                 params.tier3.dart_speed_mps,
                 params.tier3.linger_s.sample(geometry),
                 params.tier3.dart_horizon_s.sample(geometry),
+                params.tier3.invite_s.sample(geometry),
             ),
         };
         let t_race = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
@@ -288,6 +319,8 @@ impl PedestrianWorld {
             linger,
             dart_horizon,
             dart_at: None,
+            invited_for: 0.0,
+            invite,
             revealed: false,
             history: History::steady(Sample { position_m: lat, velocity_mps: vel }, vel),
         }
@@ -336,7 +369,13 @@ impl World for PedestrianWorld {
 
     fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
         let crosser = self.disposition == Disposition::Crosser;
-        let kerb_stop = self.params.pedestrian.kerb_stop_m;
+        // Tier 3: the crosser stops a step further on, at the kerb's edge.
+        let kerb_stop = if self.tier == Tier::T3 && crosser {
+            self.params.tier3.crosser_stop_m
+        } else {
+            self.params.pedestrian.kerb_stop_m
+        };
+        let feinter_stop = self.params.pedestrian.kerb_stop_m;
         let mut accel = PED_ACCEL;
         // The pedestrian watches the car from the start: hang-back counts
         // whenever the car's motion does not say it is going first.
@@ -347,7 +386,8 @@ impl World for PedestrianWorld {
             Phase::ToKerb => {
                 let left = kerb_stop - self.lat;
                 // Where a pedestrian who stops at the kerb starts to slow.
-                if left <= self.walk * self.walk / (2.0 * PED_ACCEL) + 0.02 && self.tier == Tier::T1 {
+                let feinter_left = feinter_stop - self.lat;
+                if feinter_left <= self.walk * self.walk / (2.0 * PED_ACCEL) + 0.02 && self.tier != Tier::T2 {
                     self.revealed = true;
                 }
                 if self.tier == Tier::T1 && crosser {
@@ -377,7 +417,11 @@ impl World for PedestrianWorld {
                             if self.dart_at.is_none() && self.ego_due(ego) {
                                 self.dart_at = Some(t + self.params.tier3.dart_reaction_s);
                             }
-                            let dart = self.dart_at.is_some_and(|d| t + 1e-9 >= d) || t - since + 1e-9 >= self.linger;
+                            let giving_way = ego.s < -X_HALF && !self.ego_going(ego);
+                            self.invited_for = if giving_way { self.invited_for + dt } else { 0.0 };
+                            let dart = self.dart_at.is_some_and(|d| t + 1e-9 >= d)
+                                || self.invited_for + 1e-9 >= self.invite
+                                || t - since + 1e-9 >= self.linger;
                             if dart {
                                 self.revealed = true;
                                 self.phase = Phase::Cross { speed: self.step_speed, accel: PED_ACCEL };

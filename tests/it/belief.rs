@@ -119,13 +119,24 @@ fn eval_against_the_served_expert_reproduces_the_ideal_observer_exactly() {
     }
 }
 
-/// Pre-evidence turns of episodes where the other does not let the ego
-/// pass, and how many of them the policy stated a belief of at least 0.9.
+/// Turns of episodes where the other does not let the ego pass while its
+/// bluff stands, and how many of them the policy stated a belief of at
+/// least 0.9. A car's bluff stands until the evidence turn; the crosswalk's
+/// tier-3 crosser bluffs after its tell (where it stopped): it stands paused
+/// at the kerb, at rest in the scene, until it darts.
 fn confident_and_wrong(lines: &[Value]) -> (usize, usize) {
     let (mut turns, mut confident) = (0, 0);
     for line in lines.iter().filter(|l| lets_pass(l["disposition"].as_str().unwrap()) == 0.0) {
         let evidence = line["evidence_turn"].as_u64().unwrap_or(u64::MAX);
-        for turn in line["turns"].as_array().unwrap().iter().filter(|t| t["turn"].as_u64().unwrap() < evidence) {
+        let bluffing = |t: &Value| {
+            if line["scenario"] == "pedestrian_feint" {
+                let scene = t["scene"].as_str().unwrap();
+                scene.lines().any(|l| l.starts_with("Pedestrian: ") && l.ends_with("velocity 0.0 m/s"))
+            } else {
+                t["turn"].as_u64().unwrap() < evidence
+            }
+        };
+        for turn in line["turns"].as_array().unwrap().iter().filter(|t| bluffing(t)) {
             turns += 1;
             confident += usize::from(turn["belief"].as_f64().unwrap() >= 0.9);
         }

@@ -16,6 +16,11 @@ const PACE_MPS: f64 = 10.5;
 /// be moving.
 const COMMIT_ETA_S: f64 = 1.2;
 
+/// A pedestrian standing this near the road (lateral from the near kerb,
+/// m), its toes at the kerb's edge, is about to step in; one who waits for
+/// cars stands back from the edge.
+const EDGE_M: f64 = -0.35;
+
 /// Whether the ego could still stop short of the line if it kept its speed
 /// for one more decision (0.5 s) and then braked hard.
 fn can_wait_a_turn(v: f64, d: f64) -> bool {
@@ -45,10 +50,11 @@ fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
     hedge(v, d - WAIT_GAP_M)
 }
 
-/// The expert: give way to a pedestrian moving into or through the road;
-/// keep a going pace toward one who walks to or stands at the kerb while a
-/// stop stays possible, and go once it is due so soon that a crosser would
-/// already have moved (a standing pedestrian then waits for the ego).
+/// The expert: give way to a pedestrian moving into or through the road,
+/// or standing at the kerb's edge (about to step in); keep a going pace
+/// toward one who walks to or waits back from the edge while a stop stays
+/// possible, and go once it is due so soon that a crosser would already
+/// have moved (a standing pedestrian then waits for the ego).
 pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
     let lat = p.now.position_m;
     let vel = p.now.velocity_mps;
@@ -57,14 +63,14 @@ pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
     }
     let kerb = lat <= -0.1;
     let standing = vel.abs() < 0.15;
-    // Slowing at the kerb is stopping, not stepping off.
-    let stopping = p.recent_accel() < -0.3;
+    let at_edge = lat > EDGE_M && vel >= -0.1;
+    // Picking up pace from the kerb is stepping off (slowing there is stopping).
     let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
-    if !kerb || (!standing && !stopping && (lat > -0.25 || setting_off)) {
+    if !kerb || at_edge || setting_off {
         return give_way(v, d, lat, vel);
     }
     let eta = if v > 0.5 { d / v } else { f64::INFINITY };
-    if standing && lat > -1.2 && eta <= COMMIT_ETA_S {
+    if standing && eta <= COMMIT_ETA_S {
         return go();
     }
     if !can_wait_a_turn(v, d) {
