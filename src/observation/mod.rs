@@ -13,35 +13,9 @@ use crate::action::Action;
 use crate::scenario::ScenarioKind;
 use serde::{Deserialize, Serialize};
 
-/// Past samples of the other agent kept in an observation: t-2.0, t-1.5,
-/// t-1.0 and t-0.5 s, oldest first.
-pub const HISTORY_LEN: usize = 4;
-/// Seconds between two history samples (one decision).
-pub const HISTORY_SPACING_S: f64 = 0.5;
-
-/// Position and velocity of the other agent at one instant, in the
-/// scenario's frame (see [`Scene`]).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct Sample {
-    pub position_m: f64,
-    pub velocity_mps: f64,
-}
-
-/// The other agent now and over the last two seconds.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct Track {
-    pub now: Sample,
-    pub past: [Sample; HISTORY_LEN],
-}
-
-impl Track {
-    /// Mean acceleration over the last half second.
-    pub fn recent_accel(&self) -> f64 {
-        (self.now.velocity_mps - self.past[HISTORY_LEN - 1].velocity_mps) / HISTORY_SPACING_S
-    }
-}
-
-pub use crate::scenario::Scene;
+// The readings of the other road users are the worlds' output: defined with
+// them (`scenario::track`), so that `scenario` never imports this module.
+pub use crate::scenario::{HISTORY_LEN, HISTORY_SPACING_S, ReadingNoise, Sample, Scene, Track};
 
 /// The ego's own state.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -50,16 +24,6 @@ pub struct EgoView {
     pub accel_mps2: f64,
     pub to_goal_m: f64,
     pub speed_limit_mps: f64,
-}
-
-/// The size of the random noise on the other road users' readings, where a
-/// tier adds it (one standard deviation, drawn afresh each turn). Public: it
-/// is a property of the tier, the same under both dispositions, and a
-/// driver told nothing would misread a jumping position as motion.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct ReadingNoise {
-    pub position_sd_m: f64,
-    pub speed_sd_mps: f64,
 }
 
 /// What a policy sees at one decision.

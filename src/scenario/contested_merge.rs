@@ -78,8 +78,8 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
+use super::{Sample, Scene};
 use crate::noise::NoisyReading;
-use crate::observation::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
 use serde::{Deserialize, Serialize};
@@ -694,12 +694,11 @@ impl World for MergeWorld {
         true
     }
 
-    fn reading_noise(&self) -> Option<crate::observation::ReadingNoise> {
+    fn reading_noise(&self) -> Option<super::ReadingNoise> {
         let sd = &self.params.tier2;
-        self.noise.is_some().then_some(crate::observation::ReadingNoise {
-            position_sd_m: sd.position_noise_m,
-            speed_sd_mps: sd.speed_noise_mps,
-        })
+        self.noise
+            .is_some()
+            .then_some(super::ReadingNoise { position_sd_m: sd.position_noise_m, speed_sd_mps: sd.speed_noise_mps })
     }
 
     fn cuts_off(&self, ego: &Body) -> bool {

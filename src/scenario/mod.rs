@@ -4,6 +4,7 @@
 pub mod contested_merge;
 pub mod pedestrian_feint;
 mod scene;
+mod track;
 pub mod world;
 pub mod yield_standoff;
 
@@ -15,6 +16,7 @@ use std::str::FromStr;
 pub use contested_merge::MergeParams;
 pub use pedestrian_feint::PedestrianParams;
 pub use scene::Scene;
+pub use track::{HISTORY_LEN, HISTORY_SPACING_S, ReadingNoise, Sample, Track};
 pub use yield_standoff::YieldParams;
 
 /// The three validated negotiation scenarios.

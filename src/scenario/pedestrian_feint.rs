@@ -75,7 +75,7 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::observation::{Sample, Scene};
+use super::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Aabb, Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, PEDESTRIAN_SIZE, travel_time};
 use serde::{Deserialize, Serialize};

@@ -5,7 +5,7 @@
 //! the public side (`policy::expert`).
 
 use super::ScenarioKind;
-use crate::observation::Track;
+use super::Track;
 use serde::{Deserialize, Serialize};
 
 /// Scenario-specific geometry, all distances in metres.
@@ -178,7 +178,7 @@ impl Scene {
         let tracks = match (*self, *older) {
             (Scene::ContestedMerge { ego_to_merge_m: now, .. }, Scene::ContestedMerge { ego_to_merge_m: then, .. }) => {
                 let travelled = then - now;
-                let shift = |s: crate::observation::Sample| crate::observation::Sample {
+                let shift = |s: super::Sample| super::Sample {
                     position_m: s.position_m - travelled,
                     velocity_mps: s.velocity_mps,
                 };
@@ -193,11 +193,11 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::observation::Sample;
+    use crate::scenario::Sample;
 
     fn track(position_m: f64, velocity_mps: f64) -> Track {
         let s = Sample { position_m, velocity_mps };
-        Track { now: s, past: [s; crate::observation::HISTORY_LEN] }
+        Track { now: s, past: [s; crate::scenario::HISTORY_LEN] }
     }
 
     #[test]

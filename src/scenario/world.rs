@@ -1,7 +1,7 @@
 //! What every scenario world provides to the episode loop. A world owns the
 //! other road users and the hidden state; the episode owns the ego.
 
-use crate::observation::{HISTORY_LEN, Sample, Scene, Track};
+use super::{HISTORY_LEN, HISTORY_SPACING_S, Sample, Scene, Track};
 use crate::sim::{Aabb, Body};
 
 /// Privileged per-step facts the graders read.
@@ -66,7 +66,7 @@ pub trait World {
     }
     /// The size of the noise this world's readings carry, as the scene
     /// text states it (public: a property of the tier).
-    fn reading_noise(&self) -> Option<crate::observation::ReadingNoise> {
+    fn reading_noise(&self) -> Option<super::ReadingNoise> {
         None
     }
 }
@@ -87,7 +87,7 @@ impl History {
         let mut past = [now; HISTORY_LEN];
         for (i, s) in past.iter_mut().enumerate() {
             let k = (HISTORY_LEN - i) as f64;
-            s.position_m = now.position_m - position_rate * k * crate::observation::HISTORY_SPACING_S;
+            s.position_m = now.position_m - position_rate * k * HISTORY_SPACING_S;
         }
         History { past }
     }
@@ -98,7 +98,7 @@ impl History {
     pub fn braking(now: Sample, decel: f64, position_rate: f64) -> Self {
         let mut past = [now; HISTORY_LEN];
         for (i, s) in past.iter_mut().enumerate() {
-            let tau = (HISTORY_LEN - i) as f64 * crate::observation::HISTORY_SPACING_S;
+            let tau = (HISTORY_LEN - i) as f64 * HISTORY_SPACING_S;
             let v = now.velocity_mps + decel * tau;
             let travelled = now.velocity_mps * tau + 0.5 * decel * tau * tau;
             *s = Sample { position_m: now.position_m - position_rate * travelled, velocity_mps: v };

@@ -46,7 +46,7 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
-use crate::observation::{Sample, Scene};
+use super::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, DT, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
 use serde::{Deserialize, Serialize};
