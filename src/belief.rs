@@ -4,14 +4,15 @@
 //! - [`Probe`]: part of a run's configuration (a probe run is its own run
 //!   directory and leaderboard row).
 //! - [`question`]: the neutral wording of the belief question per scenario,
-//!   and [`check_neutral`], the leak check every prompt passes.
+//!   and `check_neutral`, the leak check every prompt passes (in the tests:
+//!   the prompts are fixed text).
 //! - The ideal observer: knows the scenario's rules, the seed's geometry and
 //!   the prior (0.5), never the disposition. Without observation noise its
 //!   belief is 0.5 until the evidence turn and 1 for the true class from it
 //!   on ([`crate::episode::Episode`] steps a twin world under the other
 //!   disposition to find that turn). On a noisy tier it is the exact
 //!   posterior of the printed readings under the known noise model
-//!   ([`reading_likelihood`]).
+//!   ([`crate::noise::reading_likelihood`]).
 //! - [`BeliefMetrics`]: one episode's scores; [`BeliefSummary`]: a cell's.
 //!
 //! "Belief" is always the probability that the other road user lets the ego
@@ -19,7 +20,6 @@
 //! ([`crate::scenario::Disposition::ego_should_go`]).
 
 use crate::action::Maneuver;
-pub use crate::noise::{NoisyReading, noise_cdf, posterior_true, reading_likelihood, readings_llr};
 use crate::scenario::ScenarioKind;
 use serde::{Deserialize, Serialize};
 
@@ -75,7 +75,8 @@ pub fn prompt_paragraph(kind: ScenarioKind) -> String {
 
 /// Words that would tell a model which behaviours exist or how a tier
 /// hides them: disposition names, tier mechanics, and the words for them.
-pub const LEAK_WORDS: [&str; 17] = [
+#[cfg(test)]
+pub(crate) const LEAK_WORDS: [&str; 17] = [
     "committed",
     "yielder",
     "crosser",
@@ -97,7 +98,8 @@ pub const LEAK_WORDS: [&str; 17] = [
 
 /// The leak check: a prompt shown to a model may name none of
 /// [`LEAK_WORDS`] (case-insensitive). Returns the words found.
-pub fn check_neutral(text: &str) -> Result<(), Vec<&'static str>> {
+#[cfg(test)]
+pub(crate) fn check_neutral(text: &str) -> Result<(), Vec<&'static str>> {
     let lower = text.to_lowercase();
     let found: Vec<&'static str> = LEAK_WORDS.iter().copied().filter(|w| lower.contains(w)).collect();
     if found.is_empty() { Ok(()) } else { Err(found) }
@@ -346,6 +348,7 @@ belief and the observed frequency over 10 bins.";
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::noise::{NoisyReading, noise_cdf, posterior_true, reading_likelihood, readings_llr};
 
     #[test]
     fn every_belief_prompt_is_neutral_and_a_leak_is_caught() {

@@ -46,7 +46,7 @@ pub struct DecisionRecord {
     pub after_resolution: bool,
     /// Privileged: the ideal observer's belief that the other road user
     /// lets the ego pass first, given the observation this decision saw
-    /// (see [`crate::belief`]).
+    /// (see `belief`).
     #[serde(default = "half")]
     pub ideal_belief: f64,
 }

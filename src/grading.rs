@@ -24,7 +24,7 @@ impl Outcome {
 }
 
 /// The go / give-way choice the ego made, read from its motion (see
-/// [`decision_correctness`]).
+/// `decision_correctness`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Choice {

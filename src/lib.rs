@@ -2,18 +2,19 @@
 //! scripted baseline) can read another road user's hidden intent from its
 //! motion and drive accordingly.
 //!
-//! Layout, one line per module:
-//! - [`sim`]: physics (kinematic bodies, controller limits);
+//! Layout, one line per module (the crate-private ones, in plain type, are
+//! documented with `cargo doc --document-private-items`):
+//! - `sim`: physics (kinematic bodies, controller limits);
 //! - [`scenario`]: the three worlds, their tiers and TOML parameters;
 //! - [`observation`]: the public view, its text renderer and parser;
 //! - [`action`]: the action and its protective parser;
 //! - [`policy`]: the scripted baselines;
 //! - [`episode`]: the environment loop;
-//! - [`belief`]: the belief probe and the belief metrics;
-//! - [`noise`]: the observation noise model and the ideal observer's
+//! - `belief`: the belief probe and the belief metrics;
+//! - `noise`: the observation noise model and the ideal observer's
 //!   likelihoods (a leaf the worlds and the episode share);
-//! - [`grading`]: reward, decision correctness, diagnostics;
-//! - [`rng`]: the seeded per-episode random streams;
+//! - `grading`: reward, decision correctness, diagnostics;
+//! - `rng`: the seeded per-episode random streams;
 //! - `hash`: SplitMix64 and FNV-1a, the only hash functions;
 //! - `par`: the parallel map used by the baseline grid and the report;
 //! - [`stats`]: intervals, bootstraps, McNemar, pass^k;
@@ -24,8 +25,8 @@
 //! - [`validate`]: the invariants;
 //! - [`export`]: the table system: typed cells, columns defined once, one
 //!   exporter per format (aligned text, Markdown, CSV, JSON, HTML);
-//! - [`llm`]: the OpenAI-compatible chat client;
-//! - [`eval`]: `eval`, a language model as the policy;
+//! - `llm`: the OpenAI-compatible chat client;
+//! - `eval`: `eval`, a language model as the policy;
 //! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;
 //! - `envserver`: the benchmark as an OpenEnv environment (HTTP and
 //!   WebSocket) for trainers and other harnesses;
@@ -33,33 +34,33 @@
 //!   against an in-process endpoint whose answers are the person's);
 //! - [`report`]: leaderboards, paired comparisons, plots, report.html;
 //! - [`redact`]: the one place secrets are scrubbed from everything the
-//!   process writes; [`atomic`]: whole-file writes (temp file + rename);
+//!   process writes; `atomic`: whole-file writes (temp file + rename);
 //! - [`cli`]: one file per subcommand.
 
 pub mod action;
 pub mod adversary;
-pub mod atomic;
+pub(crate) mod atomic;
 pub mod baselines;
-pub mod belief;
+pub(crate) mod belief;
 pub mod cli;
 pub(crate) mod envserver;
 pub mod episode;
-pub mod eval;
+pub(crate) mod eval;
 pub mod export;
-pub mod grading;
+pub(crate) mod grading;
 pub(crate) mod hash;
-pub mod llm;
-pub mod noise;
+pub(crate) mod llm;
+pub(crate) mod noise;
 pub mod observation;
 pub(crate) mod par;
 pub(crate) mod play;
 pub mod policy;
 pub mod redact;
 pub mod report;
-pub mod rng;
+pub(crate) mod rng;
 pub mod rundir;
 pub mod scenario;
 pub(crate) mod serve;
-pub mod sim;
+pub(crate) mod sim;
 pub mod stats;
 pub mod validate;

@@ -217,6 +217,7 @@ impl JsonLines {
     }
 }
 
+#[cfg(test)]
 impl<W: Write> JsonLines<W> {
     pub fn new(out: W) -> JsonLines<W> {
         JsonLines { out }

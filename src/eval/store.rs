@@ -133,7 +133,8 @@ pub enum WriteMsg {
 /// was written (and once more at the end).
 pub struct Writer {
     pub tx: std::sync::mpsc::Sender<WriteMsg>,
-    /// fsyncs of `rollouts.jsonl` done so far.
+    /// fsyncs of `rollouts.jsonl` done so far (the tests time them).
+    #[cfg(test)]
     pub syncs: std::sync::Arc<std::sync::atomic::AtomicU64>,
     handle: std::thread::JoinHandle<Result<(), StoreError>>,
 }
@@ -206,7 +207,12 @@ impl Writer {
                 Ok(())
             })
             .map_err(io(dir))?;
-        Ok(Writer { tx, syncs, handle })
+        Ok(Writer {
+            tx,
+            #[cfg(test)]
+            syncs,
+            handle,
+        })
     }
 
     /// Close the channel and wait for every line to be written.

@@ -12,8 +12,5 @@ pub mod client;
 pub mod profile;
 pub mod types;
 
-pub use client::{
-    Client, ClientConfig, Completion, DEFAULT_MAX_REPLY_BYTES, FailureClass, LlmError, RetryPolicy, classify_status,
-    is_context_overflow, parse_retry_after,
-};
-pub use types::{ChatMessage, ChatRequest, ChatResponse, Role, Usage, split_think};
+pub use client::{Client, ClientConfig, Completion, DEFAULT_MAX_REPLY_BYTES, LlmError, RetryPolicy};
+pub use types::{ChatMessage, ChatRequest, Role, Usage};

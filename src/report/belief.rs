@@ -1,6 +1,6 @@
 //! The belief table of `report`: for runs made with `eval --probe belief`,
 //! one row per (model, scenario, tier) with the belief metrics of
-//! [`crate::belief`]. Models without the probe have no row; a report with
+//! `belief`. Models without the probe have no row; a report with
 //! no probe run has no belief table.
 
 use super::load::ModelData;

@@ -67,7 +67,7 @@ fn index(rng: &mut ChaCha8Rng, n: u32, threshold: u32) -> usize {
 /// clamped to the range of the values; when every value is 0, or every
 /// value is 1, the Wilson interval over the clusters instead. When every cluster has one value
 /// per group this is the mean of all values, and the interval is that of
-/// [`crate::stats::bootstrap_clustered_mean_ci`] up to resampling noise.
+/// `stats::bootstrap_clustered_mean_ci` (a test-time oracle) up to resampling noise.
 pub(crate) fn clustered_mean_of_means_ci(
     clusters: &[Vec<(usize, f64)>],
     groups: usize,

@@ -64,10 +64,10 @@ pub struct TurnRecord {
     /// completion-token limit (its parse errors are not counted as such).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub truncated: bool,
-    /// Reasoning tokens of this turn ([`crate::llm::Usage::reasoning`]).
+    /// Reasoning tokens of this turn (`llm::Usage::reasoning`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub reasoning_tokens: u64,
-    /// Prompt tokens served from the provider's cache ([`crate::llm::Usage::cached`]).
+    /// Prompt tokens served from the provider's cache (`llm::Usage::cached`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub cached_tokens: u64,
     /// Wall time of the successful request (ms).
