@@ -27,8 +27,9 @@ pub struct ReportArgs {
     /// tables and plots/*.svg.
     #[arg(long, value_name = "DIR", default_value = "results/report")]
     pub out: PathBuf,
-    /// Format of the tables printed on stdout (csv: the leaderboard only;
-    /// json: the whole report.json).
+    /// Format of the tables printed on stdout: the same tables in each (csv:
+    /// one header line per table, a blank line between; json: one object
+    /// keyed by table name). The whole report is report.json in --out.
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
     /// Tiers of the leaderboard, outcome, paired and pass^k tables: 1, 2,
@@ -105,21 +106,8 @@ impl ReportArgs {
         let written = report::write(&built, &self.out).map_err(input)?;
         if !self.quiet {
             let r = &built.report;
-            let mut out = String::new();
-            match self.format {
-                Format::Json => {
-                    out.push_str(&serde_json::to_string_pretty(r)?);
-                    out.push('\n');
-                }
-                Format::Csv => out.push_str(&self.format.exporter().render(&r.leaderboard.table(r.resamples))),
-                Format::Md | Format::Table => {
-                    let exporter = self.format.exporter();
-                    for t in r.tables() {
-                        out.push_str(&exporter.render(&t));
-                        out.push('\n');
-                    }
-                }
-            }
+            // Every format renders the same tables through the one table model.
+            let out = self.format.exporter().render_all(&r.tables());
             crate::redact::term::write_out(&out)?;
             for w in &r.warnings {
                 crate::redact::eline!("warning: {w}");

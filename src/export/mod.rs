@@ -21,6 +21,12 @@ pub(crate) use text::TextExporter;
 /// Renders a whole table in one format.
 pub(crate) trait Exporter {
     fn render(&self, table: &Table) -> String;
+
+    /// Several tables in one stream: each rendered, a blank line after
+    /// each (the text formats, and CSV: one header line per table).
+    fn render_all(&self, tables: &[Table]) -> String {
+        tables.iter().map(|t| self.render(t) + "\n").collect()
+    }
 }
 
 /// The formats a command prints on stdout (`--format`).

@@ -1274,3 +1274,31 @@ fn bad_input_is_a_one_line_usage_error() {
         assert!(stderr.contains(&format!("--episode '{value}': {expected}")), "{value}: {stderr}");
     }
 }
+
+/// Every `--format` prints the same tables: the JSON object's keys are the
+/// tables written as `{name}.csv`, and the CSV stream is those files, a
+/// blank line after each.
+#[test]
+fn every_format_prints_the_same_tables() {
+    let root = scratch("report-formats");
+    write_wins(&root.join("runs"), "a", 12, &|s| s % 3 != 0, Outcome::Collision);
+    write_wins(&root.join("runs"), "b", 12, &|s| s % 2 == 0, Outcome::Timeout);
+    let out = root.join("out");
+    let json = ok(report_cmd(&out, &["--format", "json", root.join("runs").to_str().unwrap()]));
+    let tables: serde_json::Map<String, Value> = serde_json::from_slice(&json.stdout).unwrap();
+    let mut csv_files: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter_map(|n| n.strip_suffix(".csv").map(str::to_string))
+        .collect();
+    csv_files.sort();
+    let keys: Vec<String> = tables.keys().cloned().collect();
+    assert_eq!(keys, csv_files);
+    let models = tables["leaderboard"].as_array().unwrap().iter().filter(|r| r["kind"] == "model").count();
+    assert_eq!(models, 2, "{}", tables["leaderboard"]);
+    let csv = ok(report_cmd(&out, &["--format", "csv", root.join("runs").to_str().unwrap()]));
+    let stream = String::from_utf8(csv.stdout).unwrap();
+    let leaderboard = std::fs::read_to_string(out.join("leaderboard.csv")).unwrap();
+    assert!(stream.starts_with(&(leaderboard + "\n")), "{stream}");
+    assert_eq!(stream.matches("\n\n").count(), csv_files.len(), "{stream}");
+}
