@@ -112,8 +112,10 @@ pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
 /// time when `n ≤ 2¹²` (rejection probability < 1/16), 32 when `n ≤ 2³²`,
 /// else 64; bits left in the last word of a [`IndexSampler::fill`] are
 /// discarded.
+/// The one index sampler of the crate's bootstraps (the report's clustered
+/// interval draws its clusters with it too).
 #[derive(Debug, Clone, Copy)]
-struct IndexSampler {
+pub(crate) struct IndexSampler {
     n: u64,
     bits: u32,
     threshold: u64,
@@ -124,7 +126,7 @@ const fn low_mask(bits: u32) -> u64 {
 }
 
 impl IndexSampler {
-    fn new(n: u64) -> Self {
+    pub(crate) fn new(n: u64) -> Self {
         debug_assert!(n >= 1);
         let bits = match n {
             0..=0x1000 => 16,
@@ -151,7 +153,7 @@ impl IndexSampler {
     }
 
     /// Fills `out` with independent uniform indices.
-    fn fill<R: Rng + ?Sized>(&self, rng: &mut R, out: &mut [usize]) {
+    pub(crate) fn fill<R: Rng + ?Sized>(&self, rng: &mut R, out: &mut [usize]) {
         match self.bits {
             16 => self.fill_with::<16, R>(rng, out),
             32 => self.fill_with::<32, R>(rng, out),
@@ -242,60 +244,6 @@ pub(crate) fn bootstrap_mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Inte
         .map(|_| {
             sampler.fill(&mut rng, &mut idx);
             sum_indexed(xs, &idx) / nf
-        })
-        .collect();
-    let (lo, hi) = percentile_bounds(stats, min, max);
-    Interval { estimate, lo, hi }
-}
-
-/// Cluster (block) percentile-bootstrap 95% interval for the pooled mean.
-///
-/// `groups[g]` holds all values of cluster `g` (e.g. one seed's value per
-/// scenario). Estimate: the mean over all values, `Σ_g Σ_i x_gi / Σ_g n_g`.
-/// Each resample draws `G` cluster indices with replacement (uniform,
-/// `ChaCha8Rng::seed_from_u64(seed)`) and computes the mean over all values
-/// of the drawn clusters (counted with multiplicity),
-/// `Σ_draws sum_g / Σ_draws n_g` — not the mean of per-cluster means,
-/// though the two coincide when all clusters have the same size. Bounds are
-/// the type-7 [`quantile`]s at 0.025 and 0.975 of the sorted replicates;
-/// estimate and bounds are clamped to the range of the values.
-///
-/// Empty clusters carry no values and are dropped before resampling (`G`
-/// counts non-empty clusters). NaN semantics as [`bootstrap_mean_ci`]: no
-/// values gives all-NaN, `resamples = 0` or a non-finite value gives NaN
-/// bounds.
-///
-/// Only the tests use it: it is the oracle that the report's clustered
-/// mean-of-means interval ([`crate::report::boot`]) is checked against.
-#[cfg(test)]
-pub(crate) fn bootstrap_clustered_mean_ci(groups: &[Vec<f64>], resamples: usize, seed: u64) -> Interval {
-    // Per-cluster (sum, count); each replicate then costs O(G).
-    let nonempty = || groups.iter().filter(|g| !g.is_empty());
-    let sums: Vec<f64> = nonempty().map(|g| g.iter().sum()).collect();
-    let counts: Vec<f64> = nonempty().map(|g| g.len() as f64).collect();
-    let g = sums.len();
-    if g == 0 {
-        return Interval::NAN;
-    }
-    let total: f64 = sums.iter().sum();
-    let count: f64 = counts.iter().sum();
-    let m = total / count;
-    let all = || groups.iter().flatten();
-    if all().any(|x| !x.is_finite()) {
-        return Interval { estimate: m, lo: f64::NAN, hi: f64::NAN };
-    }
-    let (min, max) = min_max(all());
-    let estimate = m.clamp(min, max);
-    if resamples == 0 {
-        return Interval { estimate, lo: f64::NAN, hi: f64::NAN };
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let sampler = IndexSampler::new(g as u64);
-    let mut idx = vec![0usize; g];
-    let stats: Vec<f64> = (0..resamples)
-        .map(|_| {
-            sampler.fill(&mut rng, &mut idx);
-            sum_indexed(&sums, &idx) / sum_indexed(&counts, &idx)
         })
         .collect();
     let (lo, hi) = percentile_bounds(stats, min, max);
@@ -578,9 +526,6 @@ mod tests {
         assert_ne!(a, c);
         assert_eq!(a.estimate, c.estimate);
         assert!(close(a.lo, c.lo, 0.03) && close(a.hi, c.hi, 0.03));
-        let groups: Vec<Vec<f64>> = xs.chunks(10).map(|c| c.to_vec()).collect();
-        assert_eq!(bootstrap_clustered_mean_ci(&groups, 2000, 3), bootstrap_clustered_mean_ci(&groups, 2000, 3));
-        assert_ne!(bootstrap_clustered_mean_ci(&groups, 2000, 3), bootstrap_clustered_mean_ci(&groups, 2000, 4));
     }
 
     #[test]
@@ -643,39 +588,6 @@ mod tests {
         assert_eq!(sum_indexed(&xs, &[]), 0.0);
         assert_eq!(sum_indexed(&xs, &[4]), 16.0);
         assert_eq!(sum_indexed(&xs, &[0, 1, 2, 3, 4, 4, 0]), 48.0);
-    }
-
-    #[test]
-    fn clustered_equal_sizes_matches_bootstrap_of_cluster_means() {
-        // Same seed and same draw sequence: with equal cluster sizes, the
-        // pooled resample mean equals the mean of drawn cluster means.
-        let groups: Vec<Vec<f64>> =
-            (0..30).map(|g| (0..5).map(|i| ((g * 7 + i * 3) % 11) as f64 / 10.0).collect()).collect();
-        let means: Vec<f64> = groups.iter().map(|g| mean(g)).collect();
-        let cl = bootstrap_clustered_mean_ci(&groups, B, 11);
-        let iid = bootstrap_mean_ci(&means, B, 11);
-        assert!(close(cl.estimate, iid.estimate, 1e-12));
-        assert!(close(cl.lo, iid.lo, 1e-12), "{cl:?} vs {iid:?}");
-        assert!(close(cl.hi, iid.hi, 1e-12), "{cl:?} vs {iid:?}");
-    }
-
-    #[test]
-    fn clustered_pools_values_and_widens_for_correlated_clusters() {
-        // Pooled mean, not mean of cluster means: (1 + 0 + 0 + 0) / 4.
-        let iv = bootstrap_clustered_mean_ci(&[vec![1.0], vec![0.0, 0.0, 0.0], vec![]], 100, 1);
-        assert_eq!(iv.estimate, 0.25);
-        // Constant clusters: every value repeated 10 times, so the clustered
-        // interval is ~sqrt(10) wider than the naive iid one.
-        let groups: Vec<Vec<f64>> = bernoulli(12, 40).into_iter().map(|v| vec![v; 10]).collect();
-        let flat: Vec<f64> = groups.iter().flatten().copied().collect();
-        let cl = bootstrap_clustered_mean_ci(&groups, 2000, 2);
-        let iid = bootstrap_mean_ci(&flat, 2000, 2);
-        let ratio = (cl.hi - cl.lo) / (iid.hi - iid.lo);
-        assert!(ratio > 2.5 && ratio < 3.8, "ratio {ratio}");
-        let iv = bootstrap_clustered_mean_ci(&[vec![1.0, 1.0], vec![1.0]], B, 1);
-        assert_eq!((iv.estimate, iv.lo, iv.hi), (1.0, 1.0, 1.0));
-        assert!(bootstrap_clustered_mean_ci(&[], B, 1).estimate.is_nan());
-        assert!(bootstrap_clustered_mean_ci(&[vec![]], B, 1).lo.is_nan());
     }
 
     #[test]
@@ -797,16 +709,6 @@ mod tests {
             let (min, max) = min_max(&xs);
             prop_assert!(iv.lo <= iv.estimate && iv.estimate <= iv.hi, "{:?}", iv);
             prop_assert!(min <= iv.lo && iv.hi <= max, "{:?} {} {}", iv, min, max);
-        }
-
-        #[test]
-        fn clustered_bounds_within_range(
-            groups in prop::collection::vec(prop::collection::vec(0.0f64..=1.0, 1..6), 1..20),
-            seed in any::<u64>(),
-        ) {
-            let iv = bootstrap_clustered_mean_ci(&groups, 300, seed);
-            let (min, max) = min_max(groups.iter().flatten());
-            prop_assert!(min <= iv.lo && iv.lo <= iv.hi && iv.hi <= max, "{:?}", iv);
         }
 
         #[test]

@@ -9,9 +9,11 @@
 //! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,
 //! so with one rollout per seed the two agree digit for digit.
 
-use crate::stats::{Interval, StatsError, collapsed, paired_bootstrap_diff_ci, quantile, success_ci, wilson_ci};
+use crate::stats::{
+    IndexSampler, Interval, StatsError, collapsed, paired_bootstrap_diff_ci, quantile, success_ci, wilson_ci,
+};
 pub use crate::stats::{cell_seed, seed_for};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 fn constant(xs: &[f64]) -> Option<f64> {
@@ -42,17 +44,6 @@ pub(crate) fn paired_ci(a: &[f64], b: &[f64], resamples: usize, seed: u64) -> Re
     paired_bootstrap_diff_ci(a, b, resamples, seed)
 }
 
-/// Uniform index in `[0, n)`, `1 <= n < 2^32`, by Lemire's multiply-shift
-/// with rejection (exactly unbiased).
-fn index(rng: &mut ChaCha8Rng, n: u32, threshold: u32) -> usize {
-    loop {
-        let m = u64::from(rng.next_u32()) * u64::from(n);
-        if (m as u32) >= threshold {
-            return (m >> 32) as usize;
-        }
-    }
-}
-
 /// Clustered percentile-bootstrap 95% interval for the mean over groups of
 /// the group means (the leaderboard's average over scenarios).
 ///
@@ -65,9 +56,11 @@ fn index(rng: &mut ChaCha8Rng, n: u32, threshold: u32) -> usize {
 /// with multiplicity; a group no drawn cluster has is left out of that
 /// replicate's average). Bounds: type-7 quantiles at 0.025 and 0.975,
 /// clamped to the range of the values; when every value is 0, or every
-/// value is 1, the Wilson interval over the clusters instead. When every cluster has one value
-/// per group this is the mean of all values, and the interval is that of
-/// `stats::bootstrap_clustered_mean_ci` (a test-time oracle) up to resampling noise.
+/// value is 1, the Wilson interval over the clusters instead. Clusters are
+/// drawn with [`crate::stats::IndexSampler`] from `ChaCha8Rng::seed_from_u64(seed)`,
+/// `k` per replicate, as [`crate::stats::bootstrap_mean_ci`] draws values:
+/// when every cluster has one value per group, the interval is that of the
+/// cluster means' bootstrap with the same seed.
 pub(crate) fn clustered_mean_of_means_ci(
     clusters: &[Vec<(usize, f64)>],
     groups: usize,
@@ -76,7 +69,7 @@ pub(crate) fn clustered_mean_of_means_ci(
 ) -> Interval {
     let nan = Interval { estimate: f64::NAN, lo: f64::NAN, hi: f64::NAN };
     let clusters: Vec<&Vec<(usize, f64)>> = clusters.iter().filter(|c| !c.is_empty()).collect();
-    if clusters.is_empty() || groups == 0 || clusters.len() >= u32::MAX as usize {
+    if clusters.is_empty() || groups == 0 {
         return nan;
     }
     // Per cluster, per group: (sum, count).
@@ -123,15 +116,16 @@ pub(crate) fn clustered_mean_of_means_ci(
         }
         return Interval { estimate, lo: estimate, hi: estimate };
     }
-    let k = clusters.len() as u32;
-    let threshold = k.wrapping_neg() % k;
+    let k = clusters.len();
+    let sampler = IndexSampler::new(k as u64);
+    let mut drawn = vec![0usize; k];
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut stats = Vec::with_capacity(resamples);
     for _ in 0..resamples {
         s.iter_mut().for_each(|x| *x = 0.0);
         n.iter_mut().for_each(|x| *x = 0.0);
-        for _ in 0..k {
-            let c = index(&mut rng, k, threshold);
+        sampler.fill(&mut rng, &mut drawn);
+        for &c in &drawn {
             for g in 0..groups {
                 s[g] += sums[c * groups + g];
                 n[g] += counts[c * groups + g];
@@ -148,7 +142,7 @@ pub(crate) fn clustered_mean_of_means_ci(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stats::{bootstrap_clustered_mean_ci, bootstrap_mean_ci};
+    use crate::stats::bootstrap_mean_ci;
 
     #[test]
     fn constant_samples_skip_resampling_with_the_same_answer() {
@@ -161,17 +155,54 @@ mod tests {
     }
 
     #[test]
-    fn balanced_clusters_match_the_pooled_clustered_bootstrap() {
-        // 120 seeds x 3 scenarios, deterministic pattern with per-seed correlation.
+    fn balanced_clusters_are_the_bootstrap_of_the_cluster_means() {
+        // 120 seeds x 3 scenarios, deterministic pattern with per-seed
+        // correlation. With one value per group in every cluster, the mean
+        // of the group means is the mean of the cluster means, and the same
+        // seed draws the same clusters: the two intervals agree (up to the
+        // order of floating-point sums).
         let clusters: Vec<Vec<(usize, f64)>> = (0..120)
             .map(|s| (0..3).map(|g| (g, f64::from(u8::from((s * 7 + g * 3) % 5 < 2 + (s % 2))))).collect())
             .collect();
-        let values: Vec<Vec<f64>> = clusters.iter().map(|c| c.iter().map(|&(_, v)| v).collect()).collect();
+        let cluster_means: Vec<f64> = clusters.iter().map(|c| c.iter().map(|&(_, v)| v).sum::<f64>() / 3.0).collect();
         let ours = clustered_mean_of_means_ci(&clusters, 3, 10_000, 5);
-        let pooled = bootstrap_clustered_mean_ci(&values, 10_000, 5);
-        assert!((ours.estimate - pooled.estimate).abs() < 1e-12);
-        assert!((ours.lo - pooled.lo).abs() < 0.01 && (ours.hi - pooled.hi).abs() < 0.01, "{ours:?} {pooled:?}");
+        let means = bootstrap_mean_ci(&cluster_means, 10_000, 5);
+        for (a, b) in [(ours.estimate, means.estimate), (ours.lo, means.lo), (ours.hi, means.hi)] {
+            assert!((a - b).abs() < 1e-9, "{ours:?} {means:?}");
+        }
+        assert!(ours.lo < ours.estimate && ours.estimate < ours.hi);
         assert_eq!(ours, clustered_mean_of_means_ci(&clusters, 3, 10_000, 5));
+    }
+
+    #[test]
+    fn seeded_and_wider_for_correlated_clusters() {
+        let xs: Vec<f64> = (0..100).map(|i| ((i * 37) % 101) as f64 / 100.0).collect();
+        let clusters: Vec<Vec<(usize, f64)>> = xs.chunks(10).map(|c| c.iter().map(|&v| (0, v)).collect()).collect();
+        let at = |seed| clustered_mean_of_means_ci(&clusters, 1, 2000, seed);
+        assert_eq!(at(3), at(3));
+        assert_ne!(at(3), at(4));
+        // Every seed's value repeated 10 times: the clustered interval is
+        // about sqrt(10) wider than the naive one over all the values.
+        let seeds: Vec<f64> = (0..40).map(|i| f64::from(u8::from((i * 7) % 12 < 5))).collect();
+        let repeated: Vec<Vec<(usize, f64)>> = seeds.iter().map(|&v| vec![(0, v); 10]).collect();
+        let flat: Vec<f64> = seeds.iter().flat_map(|&v| [v; 10]).collect();
+        let clustered = clustered_mean_of_means_ci(&repeated, 1, 2000, 2);
+        let naive = bootstrap_mean_ci(&flat, 2000, 2);
+        let ratio = (clustered.hi - clustered.lo) / (naive.hi - naive.lo);
+        assert!(ratio > 2.5 && ratio < 3.8, "ratio {ratio}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn bounds_stay_within_the_values(
+            clusters in proptest::collection::vec(proptest::collection::vec((0usize..3, 0.0f64..=1.0), 1..6), 1..20),
+            seed in proptest::prelude::any::<u64>(),
+        ) {
+            let iv = clustered_mean_of_means_ci(&clusters, 3, 300, seed);
+            let (min, max) = clusters.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, v)| (lo.min(v), hi.max(v)));
+            proptest::prop_assert!(iv.lo <= iv.estimate && iv.estimate <= iv.hi, "{:?}", iv);
+            proptest::prop_assert!(min <= iv.lo && iv.hi <= max, "{:?}", iv);
+        }
     }
 
     #[test]
