@@ -327,11 +327,29 @@ pub(crate) fn wilson_ci(successes: f64, n: f64) -> Interval {
 /// Wilson score interval ([`wilson_ci`]) of `k·n` successes in `n` units,
 /// `n` the number of seeds (rollouts of a seed are not independent, so
 /// they do not add to `n`). [`collapsed`] tells which rule applied.
+///
+/// When every unit has the same other value the resampling is skipped: the
+/// bootstrap gives that value three times anyway (its bounds are clamped
+/// to the values' range).
 pub(crate) fn success_ci(units: &[f64], resamples: usize, seed: u64) -> Interval {
     match collapsed(units) {
         Some(k) if resamples > 0 => wilson_ci(k * units.len() as f64, units.len() as f64),
-        _ => bootstrap_mean_ci(units, resamples, seed),
+        _ => match units.first() {
+            Some(&v) if resamples > 0 && v.is_finite() && units.iter().all(|&x| x == v) => {
+                Interval { estimate: v, lo: v, hi: v }
+            }
+            _ => bootstrap_mean_ci(units, resamples, seed),
+        },
     }
+}
+
+/// The success interval of one (scenario, tier) cell: [`success_ci`] over
+/// its seeds' success rates (in seed order) with the cell's own seed,
+/// [`cell_seed`]. The one implementation `eval`'s summary (base 0) and
+/// `report`'s tables (base `--seed`) both use, so they agree digit for
+/// digit.
+pub(crate) fn cell_success_ci(seed_rates: &[f64], resamples: usize, base: u64, scenario: &str, tier: u8) -> Interval {
+    success_ci(seed_rates, resamples, cell_seed(base, scenario, tier))
 }
 
 /// `Some(0.0)` or `Some(1.0)` when every unit is 0, or every unit is 1 (the

@@ -7,7 +7,7 @@ use crate::episode::{EvidenceTiming, Outcome};
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
-use crate::stats::{Interval, cell_seed, mean, success_ci};
+use crate::stats::{Interval, cell_success_ci, mean};
 use serde::{Deserialize, Serialize};
 
 /// Percentile bootstrap resamples for the success interval (SPEC section 8).
@@ -105,7 +105,7 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
             // Seeds are the units (rollouts of a seed are not independent), with the
             // cell's fixed seed (base 0): a summary is a pure function of the episodes and
             // equals the report's interval for the cell.
-            success: success_ci(&per_seed, RESAMPLES, cell_seed(0, scenario.name(), tier.number())),
+            success: cell_success_ci(&per_seed, RESAMPLES, 0, scenario.name(), tier.number()),
             collision_rate: rate(Outcome::Collision),
             timeout_rate: rate(Outcome::Timeout),
             mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
@@ -367,7 +367,7 @@ mod tests {
         let c = &s.cells[0];
         assert_eq!((c.episodes, c.seeds, c.rollouts), (8, 4, 2));
         // The interval is the bootstrap of the 4 seed rates, not of the 8 episodes.
-        let seed = cell_seed(0, ScenarioKind::PedestrianFeint.name(), Tier::T2.number());
+        let seed = crate::stats::cell_seed(0, ScenarioKind::PedestrianFeint.name(), Tier::T2.number());
         assert_eq!(c.success, crate::stats::bootstrap_mean_ci(&[1.0, 1.0, 0.0, 0.0], RESAMPLES, seed));
         let per_episode = crate::stats::bootstrap_mean_ci(&[1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0], RESAMPLES, seed);
         assert!(c.success.hi - c.success.lo > per_episode.hi - per_episode.lo, "{c:?} {per_episode:?}");

@@ -6,12 +6,10 @@
 //! quantiles (`crate::stats::quantile`) at 0.025 and 0.975 of the sorted
 //! replicate statistics. Each statistic has its own fixed seed derived from
 //! what it is (so adding a model never changes another model's interval),
-//! and a per-(scenario, tier) cell uses the very seed of `eval`'s summary,
-//! so with one rollout per seed the two agree digit for digit.
+//! and a per-(scenario, tier) cell's interval is `eval`'s summary's, one
+//! function ([`crate::stats::cell_success_ci`]).
 
-use crate::stats::{
-    IndexSampler, Interval, StatsError, collapsed, paired_bootstrap_diff_ci, quantile, success_ci, wilson_ci,
-};
+use crate::stats::{IndexSampler, Interval, StatsError, paired_bootstrap_diff_ci, quantile, wilson_ci};
 pub use crate::stats::{cell_seed, seed_for};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -19,17 +17,6 @@ use rand_chacha::ChaCha8Rng;
 fn constant(xs: &[f64]) -> Option<f64> {
     let first = *xs.first()?;
     (first.is_finite() && xs.iter().all(|&x| x == first)).then_some(first)
-}
-
-/// The success interval of units ([`success_ci`]: the bootstrap, or the
-/// Wilson interval when every unit is 0 or every unit is 1), skipping the
-/// resampling when every value is the same other value (the result is that
-/// value three times either way).
-pub(crate) fn mean_ci(xs: &[f64], resamples: usize, seed: u64) -> Interval {
-    match constant(xs) {
-        Some(v) if resamples > 0 && collapsed(xs).is_none() => Interval { estimate: v, lo: v, hi: v },
-        _ => success_ci(xs, resamples, seed),
-    }
 }
 
 /// [`paired_bootstrap_diff_ci`], skipping the resampling when every
@@ -147,8 +134,8 @@ mod tests {
     #[test]
     fn constant_samples_skip_resampling_with_the_same_answer() {
         let xs = [0.1; 40];
-        assert_eq!(mean_ci(&xs, 1000, 3), bootstrap_mean_ci(&xs, 1000, 3));
-        assert_eq!(mean_ci(&[1.0; 5], 1000, 3), wilson_ci(5.0, 5.0));
+        assert_eq!(crate::stats::success_ci(&xs, 1000, 3), bootstrap_mean_ci(&xs, 1000, 3));
+        assert_eq!(crate::stats::success_ci(&[1.0; 5], 1000, 3), wilson_ci(5.0, 5.0));
         let a = [1.0, 0.0, 1.0];
         assert_eq!(paired_ci(&a, &a, 1000, 1).unwrap(), Interval { estimate: 0.0, lo: 0.0, hi: 0.0 });
         assert!(paired_ci(&a, &a[..2], 1000, 1).is_err());

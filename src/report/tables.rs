@@ -5,14 +5,14 @@
 //! success rate over its rollouts (0 or 1 with one rollout per seed), so
 //! rollouts of one seed are never treated as independent.
 
-use super::boot::{cell_seed, clustered_mean_of_means_ci, mean_ci, seed_for};
+use super::boot::{clustered_mean_of_means_ci, seed_for};
 use super::load::{Episode, ModelData, same_unit};
 use super::reference::{CEILING, FLOOR, References};
 use crate::episode::Outcome;
 use crate::export::{Cell, Column, INCOMPLETE_MARK, Style, Table};
 use crate::par::par_map;
 use crate::scenario::{ScenarioKind, Tier};
-use crate::stats::{Interval, mean, quantile};
+use crate::stats::{Interval, cell_success_ci, mean, quantile, success_ci};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -143,16 +143,17 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
             continue;
         }
         let values: Vec<f64> = su.iter().map(|u| u.value()).collect();
-        let seed = match tiers {
-            [t] => cell_seed(base, s.name(), t.number()),
-            _ => seed_for(base, &format!("leaderboard/{s}/{tiers_key}")),
-        };
+        // One tier: the cell's own interval; several: the leaderboard's.
+        let seed = (tiers.len() > 1).then(|| seed_for(base, &format!("leaderboard/{s}/{tiers_key}")));
         let eps: Vec<&Episode> = su.iter().flat_map(|u| &m.episodes[u.start..u.end]).collect();
         cells.push(Some(ScenarioCell {
             scenario: s,
             seeds: su.len(),
             episodes: eps.len(),
-            success: mean_ci(&values, resamples, seed),
+            success: seed.map_or_else(
+                || cell_success_ci(&values, resamples, base, s.name(), tiers[0].number()),
+                |seed| success_ci(&values, resamples, seed),
+            ),
             decision_correctness: mean_of(&eps, |e| e.decision_correctness),
         }));
     }
@@ -367,7 +368,7 @@ pub(crate) fn tier_rows(models: &[&ModelData], refs: &References, resamples: usi
             tier: t,
             seeds: us.len(),
             episodes: eps.len(),
-            success: mean_ci(&values, resamples, cell_seed(base, s.name(), t.number())),
+            success: cell_success_ci(&values, resamples, base, s.name(), t.number()),
             collision: rate(&eps, Outcome::Collision),
             timeout: rate(&eps, Outcome::Timeout),
             reward: mean_of(&eps, |e| e.reward),
