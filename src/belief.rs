@@ -54,13 +54,7 @@ impl std::str::FromStr for Probe {
 /// The belief question for a scenario: names the road user and the place
 /// as the scene text does, and says nothing about how it may behave.
 pub fn question(kind: ScenarioKind) -> &'static str {
-    match kind {
-        ScenarioKind::YieldStandoff => "the other car will let you pass through the conflict zone before it",
-        ScenarioKind::PedestrianFeint => {
-            "the pedestrian will let you drive past the crosswalk before stepping into your path"
-        }
-        ScenarioKind::ContestedMerge => "the lane car will let you merge into the lane ahead of it",
-    }
+    kind.def().belief_question
 }
 
 /// The paragraph the probe appends to the system prompt of a scenario.

@@ -78,11 +78,35 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
+use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
 use super::{Sample, Scene};
 use crate::noise::NoisyReading;
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
 use serde::{Deserialize, Serialize};
+
+/// What the rest of the program knows of this scenario.
+pub(crate) const DEF: ScenarioDef = ScenarioDef {
+    name: "contested_merge",
+    scene_name: "on-ramp",
+    rng_id: 3,
+    dispositions: [Disposition::Committed, Disposition::MakesRoom],
+    plan_axes: PlanAxes {
+        ego_along_y: false,
+        others_along_y: false,
+        zero_label: "taper start",
+        road_users: &[RoadUser { role: "lane car", lateral: None }, RoadUser { role: "follower", lateral: None }],
+    },
+    situation: "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point.",
+    track_labels: &[
+        TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)" },
+        TrackLabel { now: "Car behind it", history: "Car behind it over the last 2 s (oldest first)" },
+    ],
+    place_numbers: 2,
+    track_now: |position, velocity| format!("at {position} m (relative to you), speed {velocity} m/s"),
+    belief_question: "the lane car will let you merge into the lane ahead of it",
+    tier_mechanics: ["observation noise", "merge bluff"],
+};
 
 const LANE_OFFSET: f64 = 3.5;
 /// A car covering an ego that hangs back overlaps its rear by this (m).

@@ -2,6 +2,7 @@
 //! parameter files that are compiled into the binary and can be overridden.
 
 pub mod contested_merge;
+mod def;
 pub mod pedestrian_feint;
 mod scene;
 mod track;
@@ -14,6 +15,7 @@ use std::path::Path;
 use std::str::FromStr;
 
 pub use contested_merge::MergeParams;
+pub(crate) use def::{ScenarioDef, TrackLabel};
 pub use pedestrian_feint::PedestrianParams;
 pub use scene::Scene;
 pub use track::{HISTORY_LEN, HISTORY_SPACING_S, ReadingNoise, Sample, Track};
@@ -32,22 +34,23 @@ impl ScenarioKind {
     pub const ALL: [ScenarioKind; 3] =
         [ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge];
 
-    pub fn name(self) -> &'static str {
+    /// The scenario's definition: the one place its facts are read from.
+    pub(crate) fn def(self) -> &'static ScenarioDef {
         match self {
-            ScenarioKind::YieldStandoff => "yield_standoff",
-            ScenarioKind::PedestrianFeint => "pedestrian_feint",
-            ScenarioKind::ContestedMerge => "contested_merge",
+            ScenarioKind::YieldStandoff => &yield_standoff::DEF,
+            ScenarioKind::PedestrianFeint => &pedestrian_feint::DEF,
+            ScenarioKind::ContestedMerge => &contested_merge::DEF,
         }
+    }
+
+    pub fn name(self) -> &'static str {
+        self.def().name
     }
 
     /// The neutral name of the scene's geometry, as the scene text prints
     /// it: it names the place, never a behaviour to expect.
     pub fn scene_name(self) -> &'static str {
-        match self {
-            ScenarioKind::YieldStandoff => "intersection",
-            ScenarioKind::PedestrianFeint => "crosswalk",
-            ScenarioKind::ContestedMerge => "on-ramp",
-        }
+        self.def().scene_name
     }
 
     /// How the plan view of this scenario is read (for trajectory plots
@@ -55,32 +58,7 @@ impl ScenarioKind {
     /// along its path, where position 0 is, and the other road users'
     /// roles and frames.
     pub fn plan_axes(self) -> PlanAxes {
-        match self {
-            ScenarioKind::YieldStandoff => PlanAxes {
-                ego_along_y: true,
-                others_along_y: false,
-                zero_label: "crossing centre",
-                road_users: &[
-                    RoadUser { role: "other car", lateral: None },
-                    RoadUser { role: "follower", lateral: None },
-                ],
-            },
-            ScenarioKind::PedestrianFeint => PlanAxes {
-                ego_along_y: false,
-                others_along_y: true,
-                zero_label: "crosswalk",
-                road_users: &[RoadUser { role: "pedestrian", lateral: Some(pedestrian_feint::KERB_FRAME) }],
-            },
-            ScenarioKind::ContestedMerge => PlanAxes {
-                ego_along_y: false,
-                others_along_y: false,
-                zero_label: "taper start",
-                road_users: &[
-                    RoadUser { role: "lane car", lateral: None },
-                    RoadUser { role: "follower", lateral: None },
-                ],
-            },
-        }
+        self.def().plan_axes
     }
 
     pub fn from_scene_name(name: &str) -> Option<ScenarioKind> {
@@ -89,21 +67,34 @@ impl ScenarioKind {
 
     /// Small stable id mixed into RNG keys (never reorder).
     fn rng_id(self) -> u64 {
-        match self {
-            ScenarioKind::YieldStandoff => 1,
-            ScenarioKind::PedestrianFeint => 2,
-            ScenarioKind::ContestedMerge => 3,
-        }
+        self.def().rng_id
     }
 
     /// The two hidden dispositions of this scenario, the one that requires
     /// the ego to go first listed second.
     pub fn dispositions(self) -> [Disposition; 2] {
-        match self {
-            ScenarioKind::YieldStandoff => [Disposition::Committed, Disposition::Yielder],
-            ScenarioKind::PedestrianFeint => [Disposition::Crosser, Disposition::Feinter],
-            ScenarioKind::ContestedMerge => [Disposition::Committed, Disposition::MakesRoom],
-        }
+        self.def().dispositions
+    }
+
+    /// The scene text's "Situation:" paragraph.
+    pub(crate) fn situation(self) -> &'static str {
+        self.def().situation
+    }
+
+    /// The road users' labels in the scene text, in the scene's order.
+    pub(crate) fn track_labels(self) -> &'static [TrackLabel] {
+        self.def().track_labels
+    }
+
+    /// How many numbers the ego's place takes on the "You:" line.
+    pub(crate) fn place_numbers(self) -> usize {
+        self.def().place_numbers
+    }
+
+    /// The current sample of a road user, e.g. "21.0 m to the conflict
+    /// zone, speed 9.4 m/s", from its formatted position and velocity.
+    pub(crate) fn track_now(self, position: &str, velocity: &str) -> String {
+        (self.def().track_now)(position, velocity)
     }
 }
 
@@ -587,6 +578,27 @@ pub(crate) fn episode_key(kind: ScenarioKind, tier: Tier, seed: u64) -> [u64; 3]
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each scenario's one definition: names that parse back to it, ids and
+    /// scene names no two share, a label per road user the figures place.
+    #[test]
+    fn every_definition_is_whole_and_its_own() {
+        let defs: Vec<_> = ScenarioKind::ALL.iter().map(|k| (*k, k.def())).collect();
+        for (kind, def) in &defs {
+            assert_eq!(def.name.parse::<ScenarioKind>().unwrap(), *kind);
+            assert_eq!(ScenarioKind::from_scene_name(def.scene_name), Some(*kind));
+            assert_eq!(def.track_labels.len(), def.plan_axes.road_users.len(), "{kind}");
+            assert_ne!(def.dispositions[0], def.dispositions[1], "{kind}");
+            assert!(def.dispositions[1].ego_should_go() && !def.dispositions[0].ego_should_go(), "{kind}");
+            assert!(def.tier_mechanics.iter().all(|m| !m.is_empty()) && !def.situation.is_empty(), "{kind}");
+            for (other, o) in &defs {
+                if other != kind {
+                    assert_ne!(def.rng_id, o.rng_id);
+                    assert_ne!(def.scene_name, o.scene_name);
+                }
+            }
+        }
+    }
 
     #[test]
     fn builtin_files_parse_and_validate() {

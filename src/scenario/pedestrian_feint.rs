@@ -75,10 +75,31 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
+use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
 use super::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Aabb, Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, PEDESTRIAN_SIZE, travel_time};
 use serde::{Deserialize, Serialize};
+
+/// What the rest of the program knows of this scenario.
+pub(crate) const DEF: ScenarioDef = ScenarioDef {
+    name: "pedestrian_feint",
+    scene_name: "crosswalk",
+    rng_id: 2,
+    dispositions: [Disposition::Crosser, Disposition::Feinter],
+    plan_axes: PlanAxes {
+        ego_along_y: false,
+        others_along_y: true,
+        zero_label: "crosswalk",
+        road_users: &[RoadUser { role: "pedestrian", lateral: Some(KERB_FRAME) }],
+    },
+    situation: "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.",
+    track_labels: &[TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)" }],
+    place_numbers: 1,
+    track_now: |position, velocity| format!("at {position} m (lateral), velocity {velocity} m/s"),
+    belief_question: "the pedestrian will let you drive past the crosswalk before stepping into your path",
+    tier_mechanics: ["delayed step-out", "pause-then-dart"],
+};
 
 /// Lane half-width; the near kerb is at y = -KERB.
 const KERB: f64 = 1.75;

@@ -1,8 +1,9 @@
 //! The public scene of each scenario: what the observation holds beyond the
-//! ego's own state, and how the scene text phrases it. The observation
-//! module renders and parses any scene through the methods below without
-//! knowing which scenarios exist; the scripted policies' rules read it from
-//! the public side (`policy::expert`).
+//! ego's own state. How the scene text phrases it is each scenario's
+//! definition (`ScenarioDef`, in its own file); the observation module
+//! renders and parses any scene through these methods and that definition
+//! without knowing which scenarios exist; the scripted policies' rules read
+//! it from the public side (`policy::expert`).
 
 use super::ScenarioKind;
 use super::Track;
@@ -29,62 +30,6 @@ pub enum Scene {
     /// `lane_car.position_m` / `follower.position_m`: their centre relative
     /// to the ego's centre along the road (positive ahead of the ego).
     ContestedMerge { ego_to_merge_m: f64, ramp_left_m: f64, lane_car: Track, follower: Track },
-}
-
-/// A road user's lines in the scene text: its label (the line key) and the
-/// key of its history line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct TrackLabel {
-    pub now: &'static str,
-    pub history: &'static str,
-}
-
-const OTHER_CAR: TrackLabel = TrackLabel { now: "Other car", history: "Other car over the last 2 s (oldest first)" };
-const CAR_BEHIND: TrackLabel =
-    TrackLabel { now: "Car behind it", history: "Car behind it over the last 2 s (oldest first)" };
-const PEDESTRIAN: TrackLabel = TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)" };
-const LANE_CAR: TrackLabel = TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)" };
-
-const YIELD_SITUATION: &str = "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Cars (yours too) are 4.8 m long, 1.9 m wide. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (any car has fully crossed below -6.7 m).";
-const PEDESTRIAN_SITUATION: &str = "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.";
-const MERGE_SITUATION: &str = "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point.";
-
-impl ScenarioKind {
-    /// The scene text's "Situation:" paragraph.
-    pub(crate) fn situation(self) -> &'static str {
-        match self {
-            ScenarioKind::YieldStandoff => YIELD_SITUATION,
-            ScenarioKind::PedestrianFeint => PEDESTRIAN_SITUATION,
-            ScenarioKind::ContestedMerge => MERGE_SITUATION,
-        }
-    }
-
-    /// The road users' labels in the scene text, in the scene's order.
-    pub(crate) fn track_labels(self) -> &'static [TrackLabel] {
-        match self {
-            ScenarioKind::YieldStandoff => &[OTHER_CAR, CAR_BEHIND],
-            ScenarioKind::PedestrianFeint => &[PEDESTRIAN],
-            ScenarioKind::ContestedMerge => &[LANE_CAR, CAR_BEHIND],
-        }
-    }
-
-    /// How many numbers the ego's place takes on the "You:" line.
-    pub(crate) fn place_numbers(self) -> usize {
-        match self {
-            ScenarioKind::ContestedMerge => 2,
-            _ => 1,
-        }
-    }
-
-    /// The current sample of a road user, e.g. "21.0 m to the conflict
-    /// zone, speed 9.4 m/s", from its formatted position and velocity.
-    pub(crate) fn track_now(self, position: &str, velocity: &str) -> String {
-        match self {
-            ScenarioKind::YieldStandoff => format!("{position} m to the conflict zone, speed {velocity} m/s"),
-            ScenarioKind::PedestrianFeint => format!("at {position} m (lateral), velocity {velocity} m/s"),
-            ScenarioKind::ContestedMerge => format!("at {position} m (relative to you), speed {velocity} m/s"),
-        }
-    }
 }
 
 impl Scene {

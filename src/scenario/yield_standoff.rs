@@ -46,10 +46,34 @@
 
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
+use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
 use super::{Sample, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, DT, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
 use serde::{Deserialize, Serialize};
+
+/// What the rest of the program knows of this scenario.
+pub(crate) const DEF: ScenarioDef = ScenarioDef {
+    name: "yield_standoff",
+    scene_name: "intersection",
+    rng_id: 1,
+    dispositions: [Disposition::Committed, Disposition::Yielder],
+    plan_axes: PlanAxes {
+        ego_along_y: true,
+        others_along_y: false,
+        zero_label: "crossing centre",
+        road_users: &[RoadUser { role: "other car", lateral: None }, RoadUser { role: "follower", lateral: None }],
+    },
+    situation: "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Cars (yours too) are 4.8 m long, 1.9 m wide. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (any car has fully crossed below -6.7 m).",
+    track_labels: &[
+        TrackLabel { now: "Other car", history: "Other car over the last 2 s (oldest first)" },
+        TrackLabel { now: "Car behind it", history: "Car behind it over the last 2 s (oldest first)" },
+    ],
+    place_numbers: 1,
+    track_now: |position, velocity| format!("{position} m to the conflict zone, speed {velocity} m/s"),
+    belief_question: "the other car will let you pass through the conflict zone before it",
+    tier_mechanics: ["delayed reveal", "bluff"],
+};
 
 /// Centre distance from the crossing centre at which boxes start to overlap.
 pub const HALF_ZONE: f64 = 0.5 * (CAR_LENGTH + CAR_WIDTH);

@@ -97,11 +97,19 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
     Plot {
         name: "tier_ladder".into(),
         title: title.into(),
-        caption: "Success per tier (1 plain, 2 delayed reveal / delayed step-out / observation noise, 3 bluff / \
-                  pause-then-dart / merge bluff). A model that acts on the instantaneous cue falls at tier 3 where \
-                  one that waits for a committed signal holds. Whiskers: 95% percentile bootstrap CIs over seeds; dashed: \
-                  the reference policies on each tier."
-            .into(),
+        caption: format!(
+            "Success per tier (1 plain, 2 {}, 3 {}). A model that acts on the instantaneous cue falls at tier 3 \
+             where one that waits for a committed signal holds. Whiskers: 95% percentile bootstrap CIs over seeds; \
+             dashed: the reference policies on each tier.",
+            tier_mechanics(0),
+            tier_mechanics(1)
+        ),
         svg: svg.finish(title),
     }
+}
+
+/// What tier 2 (`tier` 0) or tier 3 (1) changes in each scenario, from the
+/// scenarios' definitions: "delayed reveal / delayed step-out / ...".
+fn tier_mechanics(tier: usize) -> String {
+    ScenarioKind::ALL.iter().map(|k| k.def().tier_mechanics[tier]).collect::<Vec<_>>().join(" / ")
 }
