@@ -64,6 +64,14 @@
 //!   committed car while holding a car making room): the patience is
 //!   cumulative, so the lulls add up and the car takes its turn.
 //!
+//! How long a car that makes room waits, and why: it holds its gap open
+//! while the ego keeps pace, and takes its turn only once the ego has hung
+//! back 0.6-1.5 s in all (`lane.patience_s`, cumulative), longer than one
+//! decision: a driver who sees the gap open a decision late, or hesitates a
+//! turn before taking it, still finds it open. Shorter (down to 0.3 s, as
+//! before) cost a reader one decision late a twentieth of the noisy tier's
+//! episodes where the car had made room.
+//!
 //! The best blind plans found succeed under one disposition only: about
 //! half the episodes, at the default search budget and at 2,000,000
 //! episodes alike (see docs/validate.md).
