@@ -334,13 +334,18 @@ pub(crate) fn wilson_ci(successes: f64, n: f64) -> Interval {
 pub(crate) fn success_ci(units: &[f64], resamples: usize, seed: u64) -> Interval {
     match collapsed(units) {
         Some(k) if resamples > 0 => wilson_ci(k * units.len() as f64, units.len() as f64),
-        _ => match units.first() {
-            Some(&v) if resamples > 0 && v.is_finite() && units.iter().all(|&x| x == v) => {
-                Interval { estimate: v, lo: v, hi: v }
-            }
+        _ => match constant(units) {
+            Some(v) if resamples > 0 => Interval { estimate: v, lo: v, hi: v },
             _ => bootstrap_mean_ci(units, resamples, seed),
         },
     }
+}
+
+/// The value every element of `xs` has, when they all have the same finite
+/// one (a bootstrap of them is that value three times).
+pub(crate) fn constant(xs: &[f64]) -> Option<f64> {
+    let first = *xs.first()?;
+    (first.is_finite() && xs.iter().all(|&x| x == first)).then_some(first)
 }
 
 /// The success interval of one (scenario, tier) cell: [`success_ci`] over

@@ -400,7 +400,8 @@ impl World for PedestrianWorld {
         let mut accel = PED_ACCEL;
         // The pedestrian watches the car from the start: hang-back counts
         // whenever the car's motion does not say it is going first.
-        if ego.s < -X_HALF && !self.ego_going(ego) {
+        let hanging_back = ego.s < -X_HALF && !self.ego_going(ego);
+        if hanging_back {
             self.patience.hang_back(dt);
         }
         let target = match self.phase {
@@ -438,8 +439,8 @@ impl World for PedestrianWorld {
                             if self.dart_at.is_none() && self.ego_due(ego) {
                                 self.dart_at = Some(t + self.params.tier3.dart_reaction_s);
                             }
-                            let giving_way = ego.s < -X_HALF && !self.ego_going(ego);
-                            self.invited_for = if giving_way { self.invited_for + dt } else { 0.0 };
+                            // A car hanging back gives way to it: an invitation.
+                            self.invited_for = if hanging_back { self.invited_for + dt } else { 0.0 };
                             let dart = self.dart_at.is_some_and(|d| t + 1e-9 >= d)
                                 || self.invited_for + 1e-9 >= self.invite
                                 || t - since + 1e-9 >= self.linger;
