@@ -277,8 +277,10 @@ mod tests {
     }
 
     #[test]
+    #[allow(non_upper_case_globals)]
     fn scheduler_interleaves_then_prefers_long_cells() {
-        use ScenarioKind::*;
+        const YieldStandoff: ScenarioKind = ScenarioKind::YieldStandoff;
+        const ContestedMerge: ScenarioKind = ScenarioKind::ContestedMerge;
         let keys: Vec<EpisodeKey> =
             [YieldStandoff, ContestedMerge].iter().flat_map(|&s| (0..4).map(move |i| key(s, i))).collect();
         let mut s = Scheduler::new(keys);

@@ -71,7 +71,7 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         .iter()
         .map(|label| track(text, label.now, label.history))
         .collect::<Result<Vec<Track>, SceneParseError>>()?;
-    let scene = Scene::from_parts(scenario, &ego[2..2 + place_len], &tracks)
+    let scene = Scene::new(scenario, &ego[2..2 + place_len], &tracks)
         .expect("the place and track counts follow the scenario's own layout");
     let last = line(text, "Your last action")?.trim();
     let last_action = if last.starts_with("none") {

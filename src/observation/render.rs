@@ -3,6 +3,7 @@
 //! observation (to the printed precision).
 
 use super::{Observation, Track, round_to};
+use crate::scenario::TrackLabel;
 use std::fmt::Write;
 
 /// Format with one decimal, never "-0.0".
@@ -36,12 +37,14 @@ fn fixed(x: f64, digits: i32) -> String {
     out
 }
 
-/// `now` formats the current sample, e.g. "21.0 m to the conflict zone, speed 9.4 m/s".
-fn track_lines(out: &mut String, label: &str, t: &Track, now: impl Fn(&str, &str) -> String) {
-    let _ = writeln!(out, "{label}: {}", now(&f1(t.now.position_m), &f1(t.now.velocity_mps)));
+/// The road user's two lines, keyed by its label's `now` and `history` (the
+/// keys the parser reads back); `now` formats the current sample, e.g.
+/// "21.0 m to the conflict zone, speed 9.4 m/s".
+fn track_lines(out: &mut String, label: &TrackLabel, t: &Track, now: impl Fn(&str, &str) -> String) {
+    let _ = writeln!(out, "{}: {}", label.now, now(&f1(t.now.position_m), &f1(t.now.velocity_mps)));
     let past: Vec<String> =
         t.past.iter().map(|s| format!("{} m at {} m/s", f1(s.position_m), f1(s.velocity_mps))).collect();
-    let _ = writeln!(out, "{label} over the last 2 s (oldest first): {}", past.join("; "));
+    let _ = writeln!(out, "{}: {}", label.history, past.join("; "));
 }
 
 /// Render an observation as the scene text of one user turn.
@@ -79,7 +82,7 @@ pub fn render_scene(obs: &Observation) -> String {
         f1(e.speed_limit_mps)
     );
     for (label, track) in kind.track_labels().iter().zip(obs.scene.tracks()) {
-        track_lines(&mut out, label.now, &track, |p, v| kind.track_now(p, v));
+        track_lines(&mut out, label, track, |p, v| kind.track_now(p, v));
     }
     match obs.last_action {
         Some(a) => {

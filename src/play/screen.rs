@@ -6,7 +6,7 @@
 //! needed: emphasis is bold and reversed video.
 
 use super::input::Draft;
-use crate::observation::{Observation, Scene};
+use crate::observation::Observation;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Modifier, Style};
@@ -98,26 +98,41 @@ fn draw_plan(frame: &mut Frame, area: Rect, o: &Observation) {
         .marker(ratatui::symbols::Marker::Dot)
         .x_bounds([-40.0, 40.0])
         .y_bounds([-40.0, 40.0])
-        .paint(|ctx| match o.scene {
-            Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
-                ctx.draw(&ratatui::widgets::canvas::Line::new(-40.0, 0.0, 40.0, 0.0, ratatui::style::Color::Reset));
-                ctx.draw(&ratatui::widgets::canvas::Line::new(0.0, -40.0, 0.0, 0.0, ratatui::style::Color::Reset));
-                ctx.print(0.0, (-ego_to_conflict_m).clamp(-38.0, 38.0), "E");
-                ctx.print(other.now.position_m.clamp(-38.0, 38.0), 2.0, "O");
-                ctx.print(follower.now.position_m.clamp(-38.0, 38.0), 2.0, "F");
-            }
-            Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-                ctx.draw(&ratatui::widgets::canvas::Line::new(-40.0, -2.0, 40.0, -2.0, ratatui::style::Color::Reset));
-                ctx.draw(&ratatui::widgets::canvas::Line::new(-40.0, 12.0, 40.0, 12.0, ratatui::style::Color::Reset));
-                ctx.print((-ego_to_crosswalk_m).clamp(-38.0, 38.0), 3.0, "E");
-                ctx.print(0.0, (-2.0 + 2.0 * pedestrian.now.position_m).clamp(-38.0, 38.0), "P");
-            }
-            Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
-                ctx.draw(&ratatui::widgets::canvas::Line::new(-40.0, 0.0, 40.0, 0.0, ratatui::style::Color::Reset));
+        .paint(|ctx| {
+            // Drawn from the scenario's plan axes, not from which scenario it is.
+            let kind = o.scene.kind();
+            let axes = kind.plan_axes();
+            let relative = kind.def().tracks_relative_to_ego;
+            let d = o.scene.ego_to_conflict_m();
+            let at = |x: f64| x.clamp(-38.0, 38.0);
+            let road = |ctx: &mut ratatui::widgets::canvas::Context, x1, y1, x2, y2| {
+                ctx.draw(&ratatui::widgets::canvas::Line::new(x1, y1, x2, y2, ratatui::style::Color::Reset));
+            };
+            if relative {
+                // The ego stays put; the road users and the merge point move past it.
+                road(ctx, -40.0, 0.0, 40.0, 0.0);
                 ctx.print(0.0, -6.0, "E");
-                ctx.print(ego_to_merge_m.clamp(-38.0, 38.0), -3.0, "|");
-                ctx.print(lane_car.now.position_m.clamp(-38.0, 38.0), 3.0, "L");
-                ctx.print(follower.now.position_m.clamp(-38.0, 38.0), 3.0, "F");
+                ctx.print(at(d), -3.0, "|");
+            } else if axes.ego_along_y {
+                road(ctx, -40.0, 0.0, 40.0, 0.0);
+                road(ctx, 0.0, -40.0, 0.0, 0.0);
+                ctx.print(0.0, at(-d), "E");
+            } else {
+                ctx.print(at(-d), 3.0, "E");
+            }
+            for (k, track) in o.scene.tracks().iter().enumerate() {
+                let letter: String = axes.role(k).chars().next().map(|c| c.to_ascii_uppercase()).into_iter().collect();
+                let position = track.now.position_m;
+                match axes.road_users.get(k).and_then(|u| u.lateral) {
+                    // Across the ego's road, two canvas units to the metre, from the kerbs.
+                    Some(frame) => {
+                        for (mark, _) in frame.marks {
+                            road(ctx, -40.0, -2.0 + 2.0 * mark, 40.0, -2.0 + 2.0 * mark);
+                        }
+                        ctx.print(0.0, at(-2.0 + 2.0 * position), letter);
+                    }
+                    None => ctx.print(at(position), if relative { 3.0 } else { 2.0 }, letter),
+                }
             }
         });
     frame.render_widget(canvas, area);

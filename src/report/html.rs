@@ -341,8 +341,8 @@ pub(crate) fn render(report: &Report, drill: &DrillData) -> String {
     s.push_str("<h2 id=\"runs\">Runs</h2>");
     s.push_str(&HtmlExporter.render(&report.runs_table()));
     s.push_str("<h2 id=\"definitions\">Definitions</h2><dl class=\"defs\">");
-    for (term, def) in super::DEFINITIONS {
-        let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", esc(term), esc(def));
+    for (term, def) in super::definitions() {
+        let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", esc(&term), esc(&def));
     }
     s.push_str("</dl></main>");
     let _ = write!(s, "<script type=\"application/json\" id=\"drill-data\">{}</script>", script_json(drill));

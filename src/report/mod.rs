@@ -167,7 +167,25 @@ const INTERVAL: &str = "95% percentile bootstrap: type-7 (linear interpolation) 
                         sorted resample statistics";
 
 /// Term and definition, shown in report.md and report.html.
-pub(crate) const DEFINITIONS: [(&str, &str); 8] = [
+/// Stands for the leaderboard's DC column in [`DEFINITIONS`] (filled in, or
+/// left out without the column, by [`definitions`]).
+const DC_TERM: &str = "{dc}";
+
+/// The report's glossary, with the leaderboard's DC column as the scenario
+/// that asks for one names it.
+pub(crate) fn definitions() -> Vec<(String, String)> {
+    let dc = tables::DcColumn::get();
+    DEFINITIONS
+        .iter()
+        .filter_map(|&(term, text)| match (term, dc) {
+            (DC_TERM, None) => None,
+            (DC_TERM, Some(c)) => Some((c.term(), text.replace("{scenario}", c.scenario.name()))),
+            _ => Some((term.to_string(), text.to_string())),
+        })
+        .collect()
+}
+
+const DEFINITIONS: [(&str, &str); 8] = [
     (
         "Success",
         "Share of episodes ending with the ego at its goal without a collision. Per scenario, the unit is a seed \
@@ -190,8 +208,8 @@ pub(crate) const DEFINITIONS: [(&str, &str); 8] = [
          mean of the scenario means.",
     ),
     (
-        "Yield DC",
-        "Decision correctness on yield_standoff: the share of the agent's last 2 decisions before the go / give-way \
+        DC_TERM,
+        "Decision correctness on {scenario}: the share of the agent's last 2 decisions before the go / give-way \
          question was settled that match what the hidden disposition requires.",
     ),
     (
@@ -467,7 +485,7 @@ impl Report {
         s.push('\n');
         s.push_str(&md.render(&self.runs_table()));
         s.push_str("\n## Definitions\n\n");
-        for (term, def) in DEFINITIONS {
+        for (term, def) in definitions() {
             s.push_str(&format!("- **{term}.** {def}\n"));
         }
         s

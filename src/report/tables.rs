@@ -101,8 +101,10 @@ pub struct LeaderRow {
     /// One per [`Leaderboard::scenarios`]; `None` when the model has no
     /// episode of that scenario in scope.
     pub scenarios: Vec<Option<ScenarioCell>>,
-    /// Decision correctness on `yield_standoff`.
-    pub yield_dc: Option<f64>,
+    /// Decision correctness on the scenario of the leaderboard's DC column
+    /// ([`DcColumn`]).
+    #[serde(flatten)]
+    pub dc: DcValue,
     pub episodes: usize,
     /// Why the model is incomplete in scope (errored or missing episodes of
     /// its selection, or no episode of a scenario others have); `None`:
@@ -119,7 +121,59 @@ pub struct ReferenceRow {
     pub policy: String,
     pub average: Option<f64>,
     pub scenarios: Vec<Option<f64>>,
-    pub yield_dc: Option<f64>,
+    #[serde(flatten)]
+    pub dc: DcValue,
+}
+
+/// The leaderboard's decision-correctness column: the scenario whose
+/// definition asks for one (the paper's "Yield DC"), and its short label.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct DcColumn {
+    pub scenario: ScenarioKind,
+    label: &'static str,
+}
+
+impl DcColumn {
+    /// The column, if a scenario of the benchmark asks for one.
+    pub(crate) fn get() -> Option<DcColumn> {
+        ScenarioKind::ALL
+            .iter()
+            .find_map(|&scenario| scenario.def().leaderboard_dc.map(|label| DcColumn { scenario, label }))
+    }
+
+    /// Its header in the tables ("yield DC").
+    pub(crate) fn header(&self) -> String {
+        format!("{} DC", self.label)
+    }
+
+    /// Its key in CSV and JSON ("yield_dc").
+    pub(crate) fn key(&self) -> String {
+        format!("{}_dc", self.label)
+    }
+
+    /// Its name in prose ("Yield DC").
+    pub(crate) fn term(&self) -> String {
+        let header = self.header();
+        let mut chars = header.chars();
+        chars.next().map(|c| c.to_uppercase().chain(chars).collect()).unwrap_or_default()
+    }
+}
+
+/// A row's value in the [`DcColumn`], serialised under the column's key
+/// (nothing without the column).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DcValue(pub Option<f64>);
+
+impl Serialize for DcValue {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let column = DcColumn::get();
+        let mut map = serializer.serialize_map(Some(usize::from(column.is_some())))?;
+        if let Some(column) = column {
+            map.serialize_entry(&column.key(), &self.0)?;
+        }
+        map.end()
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -171,8 +225,9 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
         resamples,
         seed_for(base, &format!("average/{tiers_key}")),
     );
-    let yield_dc =
-        cells.iter().flatten().find(|c| c.scenario == ScenarioKind::YieldStandoff).map(|c| c.decision_correctness);
+    let dc = DcValue(DcColumn::get().and_then(|column| {
+        cells.iter().flatten().find(|c| c.scenario == column.scenario).map(|c| c.decision_correctness)
+    }));
     let episodes = cells.iter().flatten().map(|c| c.episodes).sum();
     let absent: Vec<ScenarioKind> =
         scenarios.iter().zip(&cells).filter(|(_, c)| c.is_none()).map(|(s, _)| *s).collect();
@@ -182,7 +237,7 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
         incomplete: incompleteness(m, tiers, episodes, &absent),
         episodes,
         scenarios: cells,
-        yield_dc,
+        dc,
         rank: None,
     }
 }
@@ -240,10 +295,11 @@ pub(crate) fn leaderboard(
                 policy: policy.to_string(),
                 average: (known.len() == per.len() && !known.is_empty()).then(|| mean(&known)),
                 scenarios: per,
-                yield_dc: scenarios
-                    .contains(&ScenarioKind::YieldStandoff)
-                    .then(|| refs.correctness(policy, ScenarioKind::YieldStandoff, tiers))
-                    .flatten(),
+                dc: DcValue(
+                    DcColumn::get()
+                        .filter(|column| scenarios.contains(&column.scenario))
+                        .and_then(|column| refs.correctness(policy, column.scenario, tiers)),
+                ),
             }
         })
         .collect();
@@ -268,12 +324,9 @@ impl Leaderboard {
             columns.push(Column::new(format!("{s} [95% CI]"), s.to_string()).style(Style::Interval));
             columns.push(Column::data(format!("{s}_n")));
         }
-        columns.extend([
-            Column::new("yield DC", "yield_dc"),
-            Column::new("episodes", "episodes"),
-            Column::data("tiers"),
-            Column::data("incomplete"),
-        ]);
+        let dc_column = DcColumn::get();
+        columns.extend(dc_column.map(|c| Column::new(c.header(), c.key())));
+        columns.extend([Column::new("episodes", "episodes"), Column::data("tiers"), Column::data("incomplete")]);
         let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
         let mut t = Table::new("leaderboard", self.title(), columns);
         for r in &self.rows {
@@ -285,8 +338,8 @@ impl Leaderboard {
                     None => row.extend([Cell::Missing, Cell::Int(0)]),
                 }
             }
+            row.extend(dc_column.map(|_| Cell::opt(r.dc.0)));
             row.extend([
-                Cell::opt(r.yield_dc),
                 Cell::Int(r.episodes as u64),
                 Cell::text(&tiers),
                 r.incomplete.as_ref().map_or(Cell::Blank, Cell::text),
@@ -299,12 +352,15 @@ impl Leaderboard {
             for x in &r.scenarios {
                 row.extend([level(*x), Cell::Blank]);
             }
-            row.extend([Cell::opt(r.yield_dc), Cell::Blank, Cell::text(&tiers), Cell::Blank]);
+            row.extend(dc_column.map(|_| Cell::opt(r.dc.0)));
+            row.extend([Cell::Blank, Cell::text(&tiers), Cell::Blank]);
             t.push(row);
         }
+        let dc_note = dc_column.map(|c| format!(" {}: decision correctness on {}.", c.term(), c.scenario));
         t.note(format!(
             "Per-scenario CIs resample seeds ({resamples} resamples); the average's CI resamples seeds jointly across \
-             scenarios (clustered bootstrap). Yield DC: decision correctness on yield_standoff. Reference rows: {}.",
+             scenarios (clustered bootstrap).{} Reference rows: {}.",
+            dc_note.unwrap_or_default(),
             self.reference_source
         ));
         for r in self.rows.iter().filter(|r| r.incomplete.is_some()) {

@@ -87,7 +87,7 @@
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
-use super::{Sample, Scene};
+use super::{Sample, ScenarioKind, Scene};
 use crate::noise::NoisyReading;
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, Idm, track_speed};
@@ -105,14 +105,24 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
         zero_label: "taper start",
         road_users: &[RoadUser { role: "lane car", lateral: None }, RoadUser { role: "follower", lateral: None }],
     },
+    scene_doc: "`ego_to_merge_m`: the ego's centre to the point where its body starts\nto overlap the main lane; `ramp_left_m` to the end of the ramp.\n`lane_car.position_m` / `follower.position_m`: their centre relative\nto the ego's centre along the road (positive ahead of the ego).",
+    place_fields: &["ego_to_merge_m", "ramp_left_m"],
+    place_text: |n| format!("{} m to the merge point, {} m of ramp left", n[0], n[1]),
+    tracks_relative_to_ego: true,
     situation: "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point.",
     track_labels: &[
-        TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)" },
-        TrackLabel { now: "Car behind it", history: "Car behind it over the last 2 s (oldest first)" },
+        TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)", field: "lane_car" },
+        TrackLabel {
+            now: "Car behind it",
+            history: "Car behind it over the last 2 s (oldest first)",
+            field: "follower",
+        },
     ],
-    place_numbers: 2,
     track_now: |position, velocity| format!("at {position} m (relative to you), speed {velocity} m/s"),
     belief_question: "the lane car will let you merge into the lane ahead of it",
+    leaderboard_dc: None,
+    builtin_file: ("scenarios/contested_merge.toml", include_str!("../../scenarios/contested_merge.toml")),
+    load: super::load::<MergeParams>,
     tier_mechanics: ["observation noise", "merge bluff"],
 };
 
@@ -246,8 +256,26 @@ pub struct MergeTier3 {
     pub open_decel_mps2: f64,
 }
 
-impl MergeParams {
-    pub(crate) fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
+impl super::ScenarioParams for MergeParams {
+    fn common(&self) -> &Common {
+        &self.episode
+    }
+
+    fn build_world(
+        &self,
+        tier: Tier,
+        disposition: Disposition,
+        geometry: &mut EpisodeRng,
+        noise: EpisodeRng,
+    ) -> Box<dyn World + Send> {
+        Box::new(MergeWorld::new(self, tier, disposition, geometry, noise))
+    }
+
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("scenario parameters serialise")
+    }
+
+    fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
         self.episode.validate(c)?;
         c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
         c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.0, self.episode.speed_limit_mps)?;
@@ -285,7 +313,9 @@ impl MergeParams {
         c.within("tier3.close_accel_mps2", self.tier3.close_accel_mps2, 0.5, 6.0)?;
         c.within("tier3.open_decel_mps2", self.tier3.open_decel_mps2, 0.3, 6.0)
     }
+}
 
+impl MergeParams {
     /// Ego centre x at which its body starts to overlap the lane.
     pub fn merge_point(&self) -> f64 {
         self.road.taper_length_m * (1.0 - CAR_WIDTH / LANE_OFFSET)
@@ -698,12 +728,9 @@ impl World for MergeWorld {
                 self.readings.extend([position, speed]);
             }
         }
-        Scene::ContestedMerge {
-            ego_to_merge_m: self.merge_point - ego.s,
-            ramp_left_m: self.params.road.taper_length_m - ego.s,
-            lane_car: self.lane_history.track(lane),
-            follower: self.follower_history.track(follower),
-        }
+        let place = [self.merge_point - ego.s, self.params.road.taper_length_m - ego.s];
+        let tracks = [self.lane_history.track(lane), self.follower_history.track(follower)];
+        Scene::new(ScenarioKind::ContestedMerge, &place, &tracks).expect("the on-ramp's layout")
     }
 
     fn revealed(&self) -> bool {

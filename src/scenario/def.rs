@@ -1,17 +1,27 @@
 //! One definition per scenario: every fact about a scenario that the rest
 //! of the program reads (its names, its dispositions, how figures place its
-//! road users, how the scene text phrases it, the belief question, what its
-//! tiers do) sits in its own file as a [`ScenarioDef`], and everything else
-//! reads it through the one accessor, [`super::ScenarioKind::def`].
+//! road users, how the scene and its text are laid out, the belief
+//! question, what its tiers do, its parameter file and the world those
+//! parameters build) sits in its own file as a [`ScenarioDef`]. Everything
+//! else reads it through a [`super::ScenarioKind`], a handle on that one
+//! definition: nothing outside a scenario's file matches on which scenario
+//! it is, so a scenario is added by its file, its TOML and one entry in
+//! [`super::ScenarioKind::ALL`] (see `toy.rs` for one added by a test).
 
-use super::{Disposition, PlanAxes};
+use super::world::World;
+use super::{Common, Disposition, FieldCheck, PlanAxes, ScenarioError, Tier};
+use crate::rng::EpisodeRng;
+use std::sync::Arc;
 
-/// A road user's lines in the scene text: its label (the line key) and the
-/// key of its history line.
+/// A road user's lines in the scene text and its key in the scene's JSON.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct TrackLabel {
+    /// The label of its current sample (the line key).
     pub now: &'static str,
+    /// The key of its history line.
     pub history: &'static str,
+    /// Its field in the scene's JSON ("other", "pedestrian").
+    pub field: &'static str,
 }
 
 /// What the program knows of one scenario besides its world.
@@ -30,10 +40,20 @@ pub(crate) struct ScenarioDef {
     pub plan_axes: PlanAxes,
     /// The scene text's "Situation:" paragraph.
     pub situation: &'static str,
+    /// What the scene's JSON fields measure (the scene schema's
+    /// description of this scenario's layout).
+    pub scene_doc: &'static str,
+    /// The JSON fields of the ego's place, in the "You:" line's order: the
+    /// first is the ego's distance to the conflict.
+    pub place_fields: &'static [&'static str],
+    /// The ego's place as the "You:" line phrases it, from its formatted
+    /// numbers (one per place field).
+    pub place_text: fn(&[String]) -> String,
     /// The road users' labels in the scene text, in the scene's order.
     pub track_labels: &'static [TrackLabel],
-    /// How many numbers the ego's place takes on the "You:" line.
-    pub place_numbers: usize,
+    /// The road users' positions are measured from the ego (they move with
+    /// its travel), not from a fixed point of the road.
+    pub tracks_relative_to_ego: bool,
     /// The current sample of a road user, e.g. "21.0 m to the conflict
     /// zone, speed 9.4 m/s", from its formatted position and velocity.
     pub track_now: fn(&str, &str) -> String,
@@ -42,4 +62,48 @@ pub(crate) struct ScenarioDef {
     pub belief_question: &'static str,
     /// What tiers 2 and 3 change, in a few words (figure captions).
     pub tier_mechanics: [&'static str; 2],
+    /// The short label of the leaderboard column that shows this
+    /// scenario's decision correctness, if the leaderboard shows it:
+    /// "yield" makes the paper's "yield DC" column (the first scenario of
+    /// `ScenarioKind::ALL` with one has it).
+    pub leaderboard_dc: Option<&'static str>,
+    /// The compiled-in parameter file: its path (for messages) and text.
+    pub builtin_file: (&'static str, &'static str),
+    /// Read and check the parameters of this scenario from a file's TOML
+    /// (without its `scenario` key): [`load`] for the scenario's type.
+    pub load: fn(&str, &FieldCheck) -> Loaded,
+}
+
+/// A scenario file's parameters, read and checked (see [`load`]).
+pub(crate) type Loaded = Result<Arc<dyn ScenarioParams>, ScenarioError>;
+
+/// One scenario's parameters, as its TOML file sets them: they build the
+/// scenario's world.
+pub(crate) trait ScenarioParams: std::fmt::Debug + Send + Sync {
+    /// The parameters every scenario file has.
+    fn common(&self) -> &Common;
+    /// Check every field's range; the error names the field.
+    fn validate(&self, check: &FieldCheck) -> Result<(), ScenarioError>;
+    /// The world of one episode: its geometry drawn from `geometry`, its
+    /// observation noise (on a tier that has any) from `noise`.
+    fn build_world(
+        &self,
+        tier: Tier,
+        disposition: Disposition,
+        geometry: &mut EpisodeRng,
+        noise: EpisodeRng,
+    ) -> Box<dyn World + Send>;
+    /// The parameters as JSON (what the run's scenario hash covers).
+    fn to_json(&self) -> serde_json::Value;
+}
+
+/// Parse a scenario's parameters of type `P` from TOML text and check them.
+pub(crate) fn load<P>(body: &str, check: &FieldCheck) -> Loaded
+where
+    P: ScenarioParams + serde::de::DeserializeOwned + 'static,
+{
+    let params: P = toml::from_str(body)
+        .map_err(|e| ScenarioError::Parse { path: check.path.into(), message: super::one_line(&e.to_string()) })?;
+    params.validate(check)?;
+    Ok(Arc::new(params))
 }

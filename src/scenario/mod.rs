@@ -15,38 +15,44 @@ use std::path::Path;
 use std::str::FromStr;
 
 pub use contested_merge::MergeParams;
-pub(crate) use def::{ScenarioDef, TrackLabel};
+pub(crate) use def::{ScenarioDef, ScenarioParams, TrackLabel, load};
 pub use pedestrian_feint::PedestrianParams;
 pub use scene::Scene;
 pub use track::{HISTORY_LEN, HISTORY_SPACING_S, ReadingNoise, Sample, Track};
 pub use yield_standoff::YieldParams;
 
-/// The three validated negotiation scenarios.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ScenarioKind {
-    YieldStandoff,
-    PedestrianFeint,
-    ContestedMerge,
-}
+/// A scenario: a handle on its one definition ([`ScenarioDef`], in the
+/// scenario's own file). Two handles are the same scenario when they name
+/// the same one; records and the command line spell it by name.
+#[derive(Clone, Copy)]
+pub struct ScenarioKind(&'static ScenarioDef);
 
+#[allow(non_upper_case_globals)] // named as the scenarios were when this was an enum
 impl ScenarioKind {
+    pub const YieldStandoff: ScenarioKind = ScenarioKind(&yield_standoff::DEF);
+    pub const PedestrianFeint: ScenarioKind = ScenarioKind(&pedestrian_feint::DEF);
+    pub const ContestedMerge: ScenarioKind = ScenarioKind(&contested_merge::DEF);
+
+    /// The benchmark's scenarios, in the order of every table. The only
+    /// list of them: a name is looked up here.
     pub const ALL: [ScenarioKind; 3] =
         [ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge];
 
+    /// A scenario from its definition (one not in [`ScenarioKind::ALL`],
+    /// such as a test's, plays as well; it is only not found by name).
+    #[cfg_attr(not(test), allow(dead_code))] // only a test's scenario needs it
+    pub(crate) const fn of(def: &'static ScenarioDef) -> ScenarioKind {
+        ScenarioKind(def)
+    }
+
     /// The scenario's definition: the one place its facts are read from.
     pub(crate) fn def(self) -> &'static ScenarioDef {
-        match self {
-            ScenarioKind::YieldStandoff => &yield_standoff::DEF,
-            ScenarioKind::PedestrianFeint => &pedestrian_feint::DEF,
-            ScenarioKind::ContestedMerge => &contested_merge::DEF,
-        }
+        self.0
     }
 
     pub fn name(self) -> &'static str {
         self.def().name
     }
-
     /// The neutral name of the scene's geometry, as the scene text prints
     /// it: it names the place, never a behaviour to expect.
     pub fn scene_name(self) -> &'static str {
@@ -65,8 +71,8 @@ impl ScenarioKind {
         ScenarioKind::ALL.into_iter().find(|k| k.scene_name() == name)
     }
 
-    /// Small stable id mixed into RNG keys (never reorder).
-    fn rng_id(self) -> u64 {
+    /// Small stable id mixed into RNG keys (never change one).
+    pub(crate) fn rng_id(self) -> u64 {
         self.def().rng_id
     }
 
@@ -88,13 +94,59 @@ impl ScenarioKind {
 
     /// How many numbers the ego's place takes on the "You:" line.
     pub(crate) fn place_numbers(self) -> usize {
-        self.def().place_numbers
+        self.def().place_fields.len()
     }
 
     /// The current sample of a road user, e.g. "21.0 m to the conflict
     /// zone, speed 9.4 m/s", from its formatted position and velocity.
     pub(crate) fn track_now(self, position: &str, velocity: &str) -> String {
         (self.def().track_now)(position, velocity)
+    }
+}
+
+impl PartialEq for ScenarioKind {
+    fn eq(&self, other: &ScenarioKind) -> bool {
+        self.name() == other.name()
+    }
+}
+
+impl Eq for ScenarioKind {}
+
+impl std::hash::Hash for ScenarioKind {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.name().hash(state);
+    }
+}
+
+impl Ord for ScenarioKind {
+    /// The order of [`ScenarioKind::ALL`] (by RNG id, which follows it).
+    fn cmp(&self, other: &ScenarioKind) -> std::cmp::Ordering {
+        (self.def().rng_id, self.name()).cmp(&(other.def().rng_id, other.name()))
+    }
+}
+
+impl PartialOrd for ScenarioKind {
+    fn partial_cmp(&self, other: &ScenarioKind) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl fmt::Debug for ScenarioKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Serialize for ScenarioKind {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for ScenarioKind {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = std::borrow::Cow::<str>::deserialize(deserializer)?;
+        name.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -177,8 +229,17 @@ impl LateralFrame {
 }
 
 #[derive(Debug, thiserror::Error)]
-#[error("unknown scenario '{0}' (expected yield_standoff, pedestrian_feint or contested_merge)")]
+#[error("unknown scenario '{0}' (expected {list})", list = scenario_names())]
 pub struct UnknownScenario(String);
+
+/// The benchmark's scenario names as a message lists them: "a, b or c".
+fn scenario_names() -> String {
+    let names: Vec<&str> = ScenarioKind::ALL.iter().map(|k| k.name()).collect();
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => names.join(""),
+    }
+}
 
 impl FromStr for ScenarioKind {
     type Err = UnknownScenario;
@@ -402,40 +463,42 @@ impl Common {
 }
 
 /// One scenario's parameters, as read from its TOML file.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(tag = "scenario", rename_all = "snake_case")]
-pub enum ScenarioConfig {
-    YieldStandoff(YieldParams),
-    PedestrianFeint(PedestrianParams),
-    ContestedMerge(MergeParams),
+#[derive(Debug, Clone)]
+pub struct ScenarioConfig {
+    kind: ScenarioKind,
+    params: std::sync::Arc<dyn ScenarioParams>,
 }
 
-const BUILTIN: [(&str, &str); 3] = [
-    ("scenarios/yield_standoff.toml", include_str!("../../scenarios/yield_standoff.toml")),
-    ("scenarios/pedestrian_feint.toml", include_str!("../../scenarios/pedestrian_feint.toml")),
-    ("scenarios/contested_merge.toml", include_str!("../../scenarios/contested_merge.toml")),
-];
+impl PartialEq for ScenarioConfig {
+    fn eq(&self, other: &ScenarioConfig) -> bool {
+        self.kind == other.kind && self.params.to_json() == other.params.to_json()
+    }
+}
+
+impl Serialize for ScenarioConfig {
+    /// The parameters' fields with the scenario's name under `scenario`, as
+    /// the file has them.
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut fields = match self.params.to_json() {
+            serde_json::Value::Object(fields) => fields,
+            _ => serde_json::Map::new(),
+        };
+        fields.insert("scenario".into(), self.kind.name().into());
+        fields.serialize(serializer)
+    }
+}
 
 impl ScenarioConfig {
     pub fn kind(&self) -> ScenarioKind {
-        match self {
-            ScenarioConfig::YieldStandoff(_) => ScenarioKind::YieldStandoff,
-            ScenarioConfig::PedestrianFeint(_) => ScenarioKind::PedestrianFeint,
-            ScenarioConfig::ContestedMerge(_) => ScenarioKind::ContestedMerge,
-        }
+        self.kind
     }
 
     pub fn common(&self) -> &Common {
-        match self {
-            ScenarioConfig::YieldStandoff(p) => &p.episode,
-            ScenarioConfig::PedestrianFeint(p) => &p.episode,
-            ScenarioConfig::ContestedMerge(p) => &p.episode,
-        }
+        self.params.common()
     }
 
     /// Build the world of one episode: its geometry from the episode key's
-    /// geometry stream, its observation noise from the noise stream. The
-    /// only place that maps a scenario to its world type.
+    /// geometry stream, its observation noise from the noise stream.
     pub(crate) fn build_world(
         &self,
         tier: Tier,
@@ -445,32 +508,21 @@ impl ScenarioConfig {
         use crate::rng::{EpisodeRng, Stream};
         let mut geometry = EpisodeRng::new(key, Stream::Geometry);
         let noise = EpisodeRng::new(key, Stream::ObservationNoise);
-        match self {
-            ScenarioConfig::YieldStandoff(p) => {
-                Box::new(yield_standoff::YieldWorld::new(p, tier, disposition, &mut geometry))
-            }
-            ScenarioConfig::PedestrianFeint(p) => {
-                Box::new(pedestrian_feint::PedestrianWorld::new(p, tier, disposition, &mut geometry))
-            }
-            ScenarioConfig::ContestedMerge(p) => {
-                Box::new(contested_merge::MergeWorld::new(p, tier, disposition, &mut geometry, noise))
-            }
-        }
+        self.params.build_world(tier, disposition, &mut geometry, noise)
     }
 
     /// The compiled-in parameters of a scenario.
     pub fn builtin(kind: ScenarioKind) -> ScenarioConfig {
-        let (path, text) = BUILTIN[kind as usize];
+        let (path, text) = kind.def().builtin_file;
         // The built-in files are checked by a unit test, so this cannot fail
         // in a released binary.
-        Self::from_toml(path, text).expect("built-in scenario file is valid")
+        Self::for_scenario(kind, path, text).expect("built-in scenario file is valid")
     }
 
     /// Parse and check a scenario file's text. `path` is only used in
     /// error messages.
     pub fn from_toml(path: &str, text: &str) -> Result<ScenarioConfig, ScenarioError> {
-        let table: toml::Table = toml::from_str(text)
-            .map_err(|e| ScenarioError::Parse { path: path.into(), message: one_line(&e.to_string()) })?;
+        let table = parse_table(path, text)?;
         let name = match table.get("scenario") {
             Some(toml::Value::String(s)) => s.clone(),
             Some(_) => {
@@ -484,7 +536,7 @@ impl ScenarioConfig {
                 return Err(ScenarioError::Field {
                     path: path.into(),
                     field: "scenario".into(),
-                    message: "missing (yield_standoff, pedestrian_feint or contested_merge)".into(),
+                    message: format!("missing ({})", scenario_names()),
                 });
             }
         };
@@ -493,31 +545,24 @@ impl ScenarioConfig {
             field: "scenario".into(),
             message: e.to_string(),
         })?;
-        let mut body = table;
-        body.remove("scenario");
-        let parse_err =
-            |e: toml::de::Error| ScenarioError::Parse { path: path.into(), message: one_line(&e.to_string()) };
+        Self::for_scenario(kind, path, text)
+    }
+
+    /// Parse and check the text of a file of `kind`'s parameters (its
+    /// `scenario` key, if any, must name `kind`).
+    pub(crate) fn for_scenario(kind: ScenarioKind, path: &str, text: &str) -> Result<ScenarioConfig, ScenarioError> {
+        let mut body = parse_table(path, text)?;
+        if let Some(named) = body.remove("scenario").filter(|v| v.as_str() != Some(kind.name())) {
+            return Err(ScenarioError::Field {
+                path: path.into(),
+                field: "scenario".into(),
+                message: format!("names {named}, not {kind}"),
+            });
+        }
         let body_text =
             toml::to_string(&body).map_err(|e| ScenarioError::Parse { path: path.into(), message: e.to_string() })?;
-        let check = FieldCheck { path };
-        let config = match kind {
-            ScenarioKind::YieldStandoff => {
-                let p: YieldParams = toml::from_str(&body_text).map_err(parse_err)?;
-                p.validate(&check)?;
-                ScenarioConfig::YieldStandoff(p)
-            }
-            ScenarioKind::PedestrianFeint => {
-                let p: PedestrianParams = toml::from_str(&body_text).map_err(parse_err)?;
-                p.validate(&check)?;
-                ScenarioConfig::PedestrianFeint(p)
-            }
-            ScenarioKind::ContestedMerge => {
-                let p: MergeParams = toml::from_str(&body_text).map_err(parse_err)?;
-                p.validate(&check)?;
-                ScenarioConfig::ContestedMerge(p)
-            }
-        };
-        Ok(config)
+        let params = (kind.def().load)(&body_text, &FieldCheck { path })?;
+        Ok(ScenarioConfig { kind, params })
     }
 
     pub fn from_file(path: &Path) -> Result<ScenarioConfig, ScenarioError> {
@@ -528,9 +573,13 @@ impl ScenarioConfig {
     }
 }
 
+fn parse_table(path: &str, text: &str) -> Result<toml::Table, ScenarioError> {
+    toml::from_str(text).map_err(|e| ScenarioError::Parse { path: path.into(), message: one_line(&e.to_string()) })
+}
+
 /// Collapse a multi-line parser message (toml prints a source excerpt) into
 /// one line.
-fn one_line(s: &str) -> String {
+pub(crate) fn one_line(s: &str) -> String {
     s.lines()
         .map(str::trim)
         .filter(|l| !l.is_empty() && !l.starts_with('|') && !l.chars().all(|c| c == '^' || c == ' '))
@@ -542,12 +591,12 @@ fn one_line(s: &str) -> String {
 /// files given on the command line replacing the scenario they declare.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScenarioSet {
-    configs: [ScenarioConfig; 3],
+    configs: Vec<ScenarioConfig>,
 }
 
 impl Default for ScenarioSet {
     fn default() -> Self {
-        ScenarioSet { configs: ScenarioKind::ALL.map(ScenarioConfig::builtin) }
+        ScenarioSet { configs: ScenarioKind::ALL.iter().map(|k| ScenarioConfig::builtin(*k)).collect() }
     }
 }
 
@@ -560,13 +609,20 @@ impl ScenarioSet {
         Ok(set)
     }
 
+    /// Put `config` in force for its scenario (added if the set had none).
     pub fn replace(&mut self, config: ScenarioConfig) {
-        let i = config.kind() as usize;
-        self.configs[i] = config;
+        match self.configs.iter_mut().find(|c| c.kind() == config.kind()) {
+            Some(slot) => *slot = config,
+            None => self.configs.push(config),
+        }
     }
 
+    /// The parameters in force for `kind`. A set holds every scenario of
+    /// [`ScenarioKind::ALL`] and any other put in with
+    /// [`ScenarioSet::replace`], and a scenario outside `ALL` is only made
+    /// inside the crate (`ScenarioKind::of`), so a miss is a bug.
     pub fn get(&self, kind: ScenarioKind) -> &ScenarioConfig {
-        &self.configs[kind as usize]
+        self.configs.iter().find(|c| c.kind() == kind).expect("a scenario set holds every scenario it is asked for")
     }
 }
 
@@ -574,6 +630,10 @@ impl ScenarioSet {
 pub(crate) fn episode_key(kind: ScenarioKind, tier: Tier, seed: u64) -> [u64; 3] {
     [kind.rng_id(), tier.number() as u64, seed]
 }
+
+// A scenario added by a test (last, where the layer check stops reading).
+#[cfg(test)]
+mod toy;
 
 #[cfg(test)]
 mod tests {
@@ -610,7 +670,7 @@ mod tests {
 
     #[test]
     fn unknown_field_is_named() {
-        let text = BUILTIN[0].1.replace("turn_budget", "turn_budgte");
+        let text = ScenarioKind::YieldStandoff.def().builtin_file.1.replace("turn_budget", "turn_budgte");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.contains("turn_budgte"), "{e}");
         assert!(!e.contains('\n'), "{e}");
@@ -618,16 +678,20 @@ mod tests {
 
     #[test]
     fn out_of_range_field_is_named() {
-        let text = BUILTIN[0].1.replace("turn_budget = 24", "turn_budget = 400");
-        assert_ne!(text, BUILTIN[0].1, "the planted value did not apply");
+        let text = ScenarioKind::YieldStandoff.def().builtin_file.1.replace("turn_budget = 24", "turn_budget = 400");
+        assert_ne!(text, ScenarioKind::YieldStandoff.def().builtin_file.1, "the planted value did not apply");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: turn_budget: must be 1..=40"), "{e}");
     }
 
     #[test]
     fn every_magnitude_has_an_upper_bound() {
-        let text = BUILTIN[2].1.replace("position_noise_m = 1.5", "position_noise_m = 1e30");
-        assert_ne!(text, BUILTIN[2].1, "the planted value did not apply");
+        let text = ScenarioKind::ContestedMerge
+            .def()
+            .builtin_file
+            .1
+            .replace("position_noise_m = 1.5", "position_noise_m = 1e30");
+        assert_ne!(text, ScenarioKind::ContestedMerge.def().builtin_file.1, "the planted value did not apply");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: tier2.position_noise_m: must lie in [0, 10]"), "{e}");
     }

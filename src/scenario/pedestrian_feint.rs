@@ -76,7 +76,7 @@
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
-use super::{Sample, Scene};
+use super::{Sample, ScenarioKind, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Aabb, Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, PEDESTRIAN_SIZE, travel_time};
 use serde::{Deserialize, Serialize};
@@ -93,11 +93,21 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
         zero_label: "crosswalk",
         road_users: &[RoadUser { role: "pedestrian", lateral: Some(KERB_FRAME) }],
     },
+    scene_doc: "`ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's\ncrossing line. `pedestrian.position_m`: lateral position from the\nnear kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far\nedge of the ego lane); `velocity_mps` positive when moving into the\nroad.",
+    place_fields: &["ego_to_crosswalk_m"],
+    place_text: |n| format!("{} m to the crosswalk", n[0]),
+    tracks_relative_to_ego: false,
     situation: "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.",
-    track_labels: &[TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)" }],
-    place_numbers: 1,
+    track_labels: &[TrackLabel {
+        now: "Pedestrian",
+        history: "Pedestrian over the last 2 s (oldest first)",
+        field: "pedestrian",
+    }],
     track_now: |position, velocity| format!("at {position} m (lateral), velocity {velocity} m/s"),
     belief_question: "the pedestrian will let you drive past the crosswalk before stepping into your path",
+    leaderboard_dc: None,
+    builtin_file: ("scenarios/pedestrian_feint.toml", include_str!("../../scenarios/pedestrian_feint.toml")),
+    load: super::load::<PedestrianParams>,
     tier_mechanics: ["delayed step-out", "pause-then-dart"],
 };
 
@@ -213,8 +223,26 @@ pub struct PedTier3 {
     pub patience_s: Range,
 }
 
-impl PedestrianParams {
-    pub(crate) fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
+impl super::ScenarioParams for PedestrianParams {
+    fn common(&self) -> &Common {
+        &self.episode
+    }
+
+    fn build_world(
+        &self,
+        tier: Tier,
+        disposition: Disposition,
+        geometry: &mut EpisodeRng,
+        _noise: EpisodeRng,
+    ) -> Box<dyn World + Send> {
+        Box::new(PedestrianWorld::new(self, tier, disposition, geometry))
+    }
+
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("scenario parameters serialise")
+    }
+
+    fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
         self.episode.validate(c)?;
         c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
         c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.5, self.episode.speed_limit_mps)?;
@@ -491,7 +519,8 @@ impl World for PedestrianWorld {
 
     fn observe(&mut self, ego: &Body) -> Scene {
         let now = Sample { position_m: self.lat, velocity_mps: self.vel };
-        Scene::PedestrianFeint { ego_to_crosswalk_m: -X_HALF - ego.s, pedestrian: self.history.track(now) }
+        Scene::new(ScenarioKind::PedestrianFeint, &[-X_HALF - ego.s], &[self.history.track(now)])
+            .expect("the crosswalk's layout")
     }
 
     fn revealed(&self) -> bool {

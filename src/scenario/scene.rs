@@ -1,114 +1,87 @@
-//! The public scene of each scenario: what the observation holds beyond the
-//! ego's own state. How the scene text phrases it is each scenario's
-//! definition (`ScenarioDef`, in its own file); the observation module
+//! The public scene: what the observation holds beyond the ego's own state.
+//! One type for every scenario: the scenario, the numbers of the ego's
+//! place and the other road users' tracks, laid out as the scenario's
+//! definition (`ScenarioDef`, in its own file) says. The observation module
 //! renders and parses any scene through these methods and that definition
 //! without knowing which scenarios exist; the scripted policies' rules read
 //! it from the public side (`policy::expert`).
+//!
+//! In JSON a scene is one object: `scenario` (its name), then the place's
+//! fields and the tracks' fields under the names the definition gives (for
+//! the intersection `ego_to_conflict_m`, `other`, `follower`); its JSON
+//! schema is one such object per scenario.
 
-use super::ScenarioKind;
-use super::Track;
+use super::{ScenarioKind, Track};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
-/// Scenario-specific geometry, all distances in metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(tag = "scenario", rename_all = "snake_case")]
-pub enum Scene {
-    /// `ego_to_conflict_m`: the ego's front bumper to the crossing lane's
-    /// near edge. `other.position_m`: the other car's front bumper to the
-    /// ego lane's near edge (negative once it has entered; it has cleared
-    /// the conflict zone below -`CONFLICT_ZONE_M`). `follower`: the car
-    /// behind it on the crossing road, measured the same way.
-    YieldStandoff { ego_to_conflict_m: f64, other: Track, follower: Track },
-    /// `ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's
-    /// crossing line. `pedestrian.position_m`: lateral position from the
-    /// near kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far
-    /// edge of the ego lane); `velocity_mps` positive when moving into the
-    /// road.
-    PedestrianFeint { ego_to_crosswalk_m: f64, pedestrian: Track },
-    /// `ego_to_merge_m`: the ego's centre to the point where its body starts
-    /// to overlap the main lane; `ramp_left_m` to the end of the ramp.
-    /// `lane_car.position_m` / `follower.position_m`: their centre relative
-    /// to the ego's centre along the road (positive ahead of the ego).
-    ContestedMerge { ego_to_merge_m: f64, ramp_left_m: f64, lane_car: Track, follower: Track },
+/// The most numbers an ego's place takes.
+pub const MAX_PLACE: usize = 2;
+/// The most road users a scene tracks.
+pub const MAX_TRACKS: usize = 3;
+
+/// One decision's public geometry, all distances in metres: the ego's
+/// place (the first number is its distance to the conflict) and a track per
+/// other road user, in the scenario definition's order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scene {
+    kind: ScenarioKind,
+    /// The place's numbers; the slots past the scenario's count are zero.
+    place: [f64; MAX_PLACE],
+    /// The road users' tracks; the slots past the scenario's count are zero.
+    tracks: [Track; MAX_TRACKS],
 }
 
 impl Scene {
+    /// A scene of `kind` from its place numbers and tracks; `None` if the
+    /// counts are not the scenario's layout.
+    pub fn new(kind: ScenarioKind, place: &[f64], tracks: &[Track]) -> Option<Scene> {
+        let def = kind.def();
+        if place.len() != def.place_fields.len() || tracks.len() != def.track_labels.len() {
+            return None;
+        }
+        let mut scene = Scene { kind, place: [0.0; MAX_PLACE], tracks: [Track::ZERO; MAX_TRACKS] };
+        scene.place.get_mut(..place.len())?.copy_from_slice(place);
+        scene.tracks.get_mut(..tracks.len())?.copy_from_slice(tracks);
+        Some(scene)
+    }
+
     /// The scenario, as the scene's layout says.
     pub fn kind(&self) -> ScenarioKind {
-        match self {
-            Scene::YieldStandoff { .. } => ScenarioKind::YieldStandoff,
-            Scene::PedestrianFeint { .. } => ScenarioKind::PedestrianFeint,
-            Scene::ContestedMerge { .. } => ScenarioKind::ContestedMerge,
-        }
+        self.kind
     }
 
     /// The ego's own distance to the conflict: the conflict zone, the
     /// crossing line or the merge point.
     pub fn ego_to_conflict_m(&self) -> f64 {
-        match *self {
-            Scene::YieldStandoff { ego_to_conflict_m, .. } => ego_to_conflict_m,
-            Scene::PedestrianFeint { ego_to_crosswalk_m, .. } => ego_to_crosswalk_m,
-            Scene::ContestedMerge { ego_to_merge_m, .. } => ego_to_merge_m,
-        }
+        self.place[0]
     }
 
-    /// The numbers of the ego's place on the "You:" line
-    /// ([`ScenarioKind::place_numbers`] of them).
-    pub(crate) fn place(&self) -> Vec<f64> {
-        match *self {
-            Scene::ContestedMerge { ego_to_merge_m, ramp_left_m, .. } => vec![ego_to_merge_m, ramp_left_m],
-            _ => vec![self.ego_to_conflict_m()],
-        }
+    /// The numbers of the ego's place on the "You:" line, in the order of
+    /// the scenario's `place_fields`.
+    pub fn place(&self) -> &[f64] {
+        &self.place[..self.kind.place_numbers()]
     }
 
     /// The ego's place as the "You:" line phrases it, from formatted numbers.
     pub(crate) fn place_text(&self, format: impl Fn(f64) -> String) -> String {
-        match *self {
-            Scene::YieldStandoff { ego_to_conflict_m, .. } => {
-                format!("{} m to the conflict zone", format(ego_to_conflict_m))
-            }
-            Scene::PedestrianFeint { ego_to_crosswalk_m, .. } => {
-                format!("{} m to the crosswalk", format(ego_to_crosswalk_m))
-            }
-            Scene::ContestedMerge { ego_to_merge_m, ramp_left_m, .. } => {
-                format!("{} m to the merge point, {} m of ramp left", format(ego_to_merge_m), format(ramp_left_m))
-            }
-        }
+        let numbers: Vec<String> = self.place().iter().map(|x| format(*x)).collect();
+        (self.kind.def().place_text)(&numbers)
     }
 
     /// The road users' tracks, in the order of `ScenarioKind::track_labels`.
-    pub fn tracks(&self) -> Vec<Track> {
-        match *self {
-            Scene::YieldStandoff { other, follower, .. } => vec![other, follower],
-            Scene::PedestrianFeint { pedestrian, .. } => vec![pedestrian],
-            Scene::ContestedMerge { lane_car, follower, .. } => vec![lane_car, follower],
-        }
-    }
-
-    /// Rebuild a scene from its place numbers and tracks (the inverse of
-    /// [`Scene::place`] and [`Scene::tracks`]); `None` if the counts do not
-    /// match the scenario's layout.
-    pub(crate) fn from_parts(kind: ScenarioKind, place: &[f64], tracks: &[Track]) -> Option<Scene> {
-        Some(match (kind, place, tracks) {
-            (ScenarioKind::YieldStandoff, &[d], &[other, follower]) => {
-                Scene::YieldStandoff { ego_to_conflict_m: d, other, follower }
-            }
-            (ScenarioKind::PedestrianFeint, &[d], &[pedestrian]) => {
-                Scene::PedestrianFeint { ego_to_crosswalk_m: d, pedestrian }
-            }
-            (ScenarioKind::ContestedMerge, &[d, ramp], &[lane_car, follower]) => {
-                Scene::ContestedMerge { ego_to_merge_m: d, ramp_left_m: ramp, lane_car, follower }
-            }
-            _ => return None,
-        })
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks[..self.kind.track_labels().len()]
     }
 
     /// The same scene with every number passed through `number` and every
     /// track through `track` (used to round to the printed precision).
     pub(crate) fn map(&self, number: impl Fn(f64) -> f64, track: impl Fn(Track) -> Track) -> Scene {
-        let place: Vec<f64> = self.place().into_iter().map(&number).collect();
-        let tracks: Vec<Track> = self.tracks().into_iter().map(track).collect();
-        Scene::from_parts(self.kind(), &place, &tracks).expect("a scene's own parts rebuild it")
+        let mut mapped = *self;
+        let (places, tracks) = (self.place().len(), self.tracks().len());
+        mapped.place[..places].iter_mut().for_each(|x| *x = number(*x));
+        mapped.tracks[..tracks].iter_mut().for_each(|t| *t = track(*t));
+        mapped
     }
 
     /// What a reader whose view of the other road users lags sees: this
@@ -120,18 +93,96 @@ impl Scene {
         if older.kind() != self.kind() {
             return *self;
         }
-        let tracks = match (*self, *older) {
-            (Scene::ContestedMerge { ego_to_merge_m: now, .. }, Scene::ContestedMerge { ego_to_merge_m: then, .. }) => {
-                let travelled = then - now;
-                let shift = |s: super::Sample| super::Sample {
-                    position_m: s.position_m - travelled,
-                    velocity_mps: s.velocity_mps,
-                };
-                older.tracks().into_iter().map(|t| Track { now: shift(t.now), past: t.past.map(shift) }).collect()
-            }
-            _ => older.tracks(),
+        let mut late = Scene { tracks: older.tracks, ..*self };
+        if self.kind.def().tracks_relative_to_ego {
+            let travelled = older.ego_to_conflict_m() - self.ego_to_conflict_m();
+            let shift =
+                |s: super::Sample| super::Sample { position_m: s.position_m - travelled, velocity_mps: s.velocity_mps };
+            let n = self.tracks().len();
+            late.tracks[..n].iter_mut().for_each(|t| *t = Track { now: shift(t.now), past: t.past.map(shift) });
+        }
+        late
+    }
+}
+
+impl Serialize for Scene {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let def = self.kind.def();
+        let mut map = serializer.serialize_map(Some(1 + self.place().len() + self.tracks().len()))?;
+        map.serialize_entry("scenario", def.name)?;
+        for (field, x) in def.place_fields.iter().zip(self.place()) {
+            map.serialize_entry(field, x)?;
+        }
+        for (label, track) in def.track_labels.iter().zip(self.tracks()) {
+            map.serialize_entry(label.field, track)?;
+        }
+        map.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Scene {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut fields = serde_json::Map::deserialize(deserializer)?;
+        let kind: ScenarioKind = match fields.remove("scenario") {
+            Some(name) => serde_json::from_value(name).map_err(D::Error::custom)?,
+            None => return Err(D::Error::missing_field("scenario")),
         };
-        Scene::from_parts(self.kind(), &self.place(), &tracks).expect("a scene's own parts rebuild it")
+        let def = kind.def();
+        let mut take = |field: &'static str| fields.remove(field).ok_or_else(|| D::Error::missing_field(field));
+        let mut place = Vec::with_capacity(def.place_fields.len());
+        for field in def.place_fields {
+            place.push(serde_json::from_value::<f64>(take(field)?).map_err(D::Error::custom)?);
+        }
+        let mut tracks = Vec::with_capacity(def.track_labels.len());
+        for label in def.track_labels {
+            tracks.push(serde_json::from_value::<Track>(take(label.field)?).map_err(D::Error::custom)?);
+        }
+        if let Some(unknown) = fields.keys().next() {
+            return Err(D::Error::unknown_field(unknown, &[]));
+        }
+        Scene::new(kind, &place, &tracks).ok_or_else(|| D::Error::custom("a scene's parts do not fit its scenario"))
+    }
+}
+
+impl schemars::JsonSchema for Scene {
+    fn schema_name() -> Cow<'static, str> {
+        "Scene".into()
+    }
+
+    /// One object per scenario of [`ScenarioKind::ALL`], as the derived
+    /// schema of an internally tagged enum has it.
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let number = generator.subschema_for::<f64>();
+        let track = generator.subschema_for::<Track>();
+        let layouts: Vec<serde_json::Value> = ScenarioKind::ALL
+            .iter()
+            .map(|kind| {
+                let def = kind.def();
+                let mut properties = serde_json::Map::new();
+                properties.insert("scenario".into(), serde_json::json!({"type": "string", "const": def.name}));
+                let mut required = vec![serde_json::Value::from("scenario")];
+                for field in def.place_fields {
+                    properties.insert((*field).into(), number.clone().into());
+                    required.push((*field).into());
+                }
+                for label in def.track_labels {
+                    properties.insert(label.field.into(), track.clone().into());
+                    required.push(label.field.into());
+                }
+                serde_json::json!({
+                    "description": def.scene_doc,
+                    "type": "object",
+                    "properties": properties,
+                    "required": required,
+                })
+            })
+            .collect();
+        schemars::json_schema!({
+            "description": "Scenario-specific geometry, all distances in metres.",
+            "oneOf": layouts,
+        })
     }
 }
 
@@ -149,18 +200,9 @@ mod tests {
     fn an_older_merge_reading_stays_where_the_car_then_was() {
         // Half a second ago the lane car was 2 m ahead of the ego; the ego
         // has since driven 6 m: that car, as then seen, is now 4 m behind.
-        let then = Scene::ContestedMerge {
-            ego_to_merge_m: 30.0,
-            ramp_left_m: 60.0,
-            lane_car: track(2.0, 11.0),
-            follower: track(-12.0, 11.0),
-        };
-        let now = Scene::ContestedMerge {
-            ego_to_merge_m: 24.0,
-            ramp_left_m: 54.0,
-            lane_car: track(1.0, 12.0),
-            follower: track(-13.0, 12.0),
-        };
+        let merge = ScenarioKind::ContestedMerge;
+        let then = Scene::new(merge, &[30.0, 60.0], &[track(2.0, 11.0), track(-12.0, 11.0)]).unwrap();
+        let now = Scene::new(merge, &[24.0, 54.0], &[track(1.0, 12.0), track(-13.0, 12.0)]).unwrap();
         let late = now.with_road_users_of(&then);
         assert_eq!(late.place(), now.place());
         let tracks = late.tracks();
@@ -171,9 +213,9 @@ mod tests {
 
     #[test]
     fn an_older_crossing_reading_is_taken_as_it_was() {
-        let then =
-            Scene::YieldStandoff { ego_to_conflict_m: 30.0, other: track(12.0, 5.0), follower: track(20.0, 5.0) };
-        let now = Scene::YieldStandoff { ego_to_conflict_m: 25.0, other: track(9.5, 4.0), follower: track(17.5, 5.0) };
+        let crossing = ScenarioKind::YieldStandoff;
+        let then = Scene::new(crossing, &[30.0], &[track(12.0, 5.0), track(20.0, 5.0)]).unwrap();
+        let now = Scene::new(crossing, &[25.0], &[track(9.5, 4.0), track(17.5, 5.0)]).unwrap();
         let late = now.with_road_users_of(&then);
         assert_eq!(late.ego_to_conflict_m(), 25.0);
         assert_eq!(late.tracks(), then.tracks());

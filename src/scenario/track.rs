@@ -28,6 +28,12 @@ pub struct Track {
 }
 
 impl Track {
+    /// A track at rest at 0 (a scene's unused slots).
+    pub const ZERO: Track = Track {
+        now: Sample { position_m: 0.0, velocity_mps: 0.0 },
+        past: [Sample { position_m: 0.0, velocity_mps: 0.0 }; HISTORY_LEN],
+    };
+
     /// Mean acceleration over the last half second.
     pub fn recent_accel(&self) -> f64 {
         (self.now.velocity_mps - self.past[HISTORY_LEN - 1].velocity_mps) / HISTORY_SPACING_S

@@ -47,7 +47,7 @@
 use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
-use super::{Sample, Scene};
+use super::{Sample, ScenarioKind, Scene};
 use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, DT, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
 use serde::{Deserialize, Serialize};
@@ -64,14 +64,24 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
         zero_label: "crossing centre",
         road_users: &[RoadUser { role: "other car", lateral: None }, RoadUser { role: "follower", lateral: None }],
     },
+    scene_doc: "`ego_to_conflict_m`: the ego's front bumper to the crossing lane's\nnear edge. `other.position_m`: the other car's front bumper to the\nego lane's near edge (negative once it has entered; it has cleared\nthe conflict zone below -`CONFLICT_ZONE_M`). `follower`: the car\nbehind it on the crossing road, measured the same way.",
+    place_fields: &["ego_to_conflict_m"],
+    place_text: |n| format!("{} m to the conflict zone", n[0]),
+    tracks_relative_to_ego: false,
     situation: "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Cars (yours too) are 4.8 m long, 1.9 m wide. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (any car has fully crossed below -6.7 m).",
     track_labels: &[
-        TrackLabel { now: "Other car", history: "Other car over the last 2 s (oldest first)" },
-        TrackLabel { now: "Car behind it", history: "Car behind it over the last 2 s (oldest first)" },
+        TrackLabel { now: "Other car", history: "Other car over the last 2 s (oldest first)", field: "other" },
+        TrackLabel {
+            now: "Car behind it",
+            history: "Car behind it over the last 2 s (oldest first)",
+            field: "follower",
+        },
     ],
-    place_numbers: 1,
     track_now: |position, velocity| format!("{position} m to the conflict zone, speed {velocity} m/s"),
     belief_question: "the other car will let you pass through the conflict zone before it",
+    leaderboard_dc: Some("yield"),
+    builtin_file: ("scenarios/yield_standoff.toml", include_str!("../../scenarios/yield_standoff.toml")),
+    load: super::load::<YieldParams>,
     tier_mechanics: ["delayed reveal", "bluff"],
 };
 
@@ -170,8 +180,26 @@ pub struct YieldTier3 {
     pub patience_s: Range,
 }
 
-impl YieldParams {
-    pub(crate) fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
+impl super::ScenarioParams for YieldParams {
+    fn common(&self) -> &Common {
+        &self.episode
+    }
+
+    fn build_world(
+        &self,
+        tier: Tier,
+        disposition: Disposition,
+        geometry: &mut EpisodeRng,
+        _noise: EpisodeRng,
+    ) -> Box<dyn World + Send> {
+        Box::new(YieldWorld::new(self, tier, disposition, geometry))
+    }
+
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("scenario parameters serialise")
+    }
+
+    fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
         self.episode.validate(c)?;
         c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
         c.range_within("ego.start_speed_mps", self.ego.start_speed_mps, 0.0, self.episode.speed_limit_mps)?;
@@ -481,11 +509,8 @@ impl World for YieldWorld {
     fn observe(&mut self, ego: &Body) -> Scene {
         let observed = |b: &Body| Sample { position_m: -HALF_ZONE - b.s, velocity_mps: b.v };
         let (now, follower_now) = (observed(&self.other), observed(&self.follower));
-        Scene::YieldStandoff {
-            ego_to_conflict_m: -HALF_ZONE - ego.s,
-            other: self.history.track(now),
-            follower: self.follower_history.track(follower_now),
-        }
+        let tracks = [self.history.track(now), self.follower_history.track(follower_now)];
+        Scene::new(ScenarioKind::YieldStandoff, &[-HALF_ZONE - ego.s], &tracks).expect("the intersection's layout")
     }
 
     fn revealed(&self) -> bool {

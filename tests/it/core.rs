@@ -714,8 +714,7 @@ fn a_stopped_yielder_waits_for_a_driver_who_saw_it_stop() {
     impl Policy for WaitForStop {
         fn act(&mut self, obs: &Observation) -> Action {
             self.seen.push(obs.scene);
-            let Scene::YieldStandoff { other, follower, .. } = self.seen[self.seen.len().saturating_sub(1 + self.lag)]
-            else {
+            let &[other, follower] = self.seen[self.seen.len().saturating_sub(1 + self.lag)].tracks() else {
                 unreachable!("an intersection scene");
             };
             let d = obs.ego_to_conflict_m();

@@ -5,6 +5,7 @@
 use crate::action::Action;
 use crate::observation::Track;
 use crate::policy::{go, hedge};
+use crate::scenario::ScenarioKind;
 use crate::sim::CAR_LENGTH;
 
 /// A car behind the ego is taken to be this much closer than it reads (m).
@@ -92,6 +93,20 @@ fn follow_in_lane(v: f64, v_max: f64, cars: [&Track; 2]) -> Action {
         None => go(),
     }
 }
+
+/// This scenario's rules, read from its scene (whose layout its scenario
+/// fixes; any other is given way to).
+pub(super) const RULES: super::Rules = super::Rules {
+    scenario: ScenarioKind::ContestedMerge,
+    expert: |scene, v, v_max, _last| match scene.tracks() {
+        [lane_car, follower] => expert(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),
+        _ => super::hold_back(scene, v),
+    },
+    cue_follower: |scene, v, v_max| match scene.tracks() {
+        [lane_car, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),
+        _ => super::hold_back(scene, v),
+    },
+};
 
 /// The expert: keep pace at first (a car making room only opens a gap for
 /// an ego that keeps pace); merge ahead once the lane car shows it makes

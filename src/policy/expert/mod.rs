@@ -17,35 +17,41 @@ mod yield_standoff;
 use super::Policy;
 use crate::action::Action;
 use crate::observation::{Observation, Scene};
+use crate::scenario::ScenarioKind;
 
-/// The expert's action on `scene`: each scenario's rule.
-fn expert_action(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Action {
-    match *scene {
-        Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
-            yield_standoff::expert(v, v_max, ego_to_conflict_m, &other, &follower, last)
-        }
-        Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-            pedestrian_feint::expert(v, v_max, ego_to_crosswalk_m, &pedestrian)
-        }
-        Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
-            contested_merge::expert(v, v_max, ego_to_merge_m, &lane_car, &follower)
-        }
-    }
+/// One scenario's rules, each reading only its public scene and the ego's
+/// speed (and, for the expert, its last action). Each scenario's file
+/// defines its own.
+pub(crate) struct Rules {
+    scenario: ScenarioKind,
+    expert: fn(&Scene, f64, f64, Option<Action>) -> Action,
+    cue_follower: fn(&Scene, f64, f64) -> Action,
 }
 
-/// The cue follower's action on `scene`: each scenario's instantaneous-cue rule.
+/// Every scenario's rules.
+const RULES: [&Rules; 3] = [&yield_standoff::RULES, &pedestrian_feint::RULES, &contested_merge::RULES];
+
+/// The rules of the scene's scenario. A scenario without rules here is
+/// played by giving way short of the conflict, which `validate`'s expert lines
+/// would show at once.
+fn rules(scene: &Scene) -> Option<&'static Rules> {
+    RULES.into_iter().find(|r| r.scenario == scene.kind())
+}
+
+/// Give way short of the conflict: the move of a policy with no rule for
+/// the scene.
+fn hold_back(scene: &Scene, v: f64) -> Action {
+    super::hedge(v, scene.ego_to_conflict_m())
+}
+
+/// The expert's action on `scene`: its scenario's rule.
+fn expert_action(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Action {
+    rules(scene).map_or_else(|| hold_back(scene, v), |r| (r.expert)(scene, v, v_max, last))
+}
+
+/// The cue follower's action on `scene`: its scenario's instantaneous-cue rule.
 fn cue_action(scene: &Scene, v: f64, v_max: f64) -> Action {
-    match *scene {
-        Scene::YieldStandoff { ego_to_conflict_m, other, follower } => {
-            yield_standoff::cue_follower(v, v_max, ego_to_conflict_m, &other, &follower)
-        }
-        Scene::PedestrianFeint { ego_to_crosswalk_m, pedestrian } => {
-            pedestrian_feint::cue_follower(v, v_max, ego_to_crosswalk_m, &pedestrian)
-        }
-        Scene::ContestedMerge { ego_to_merge_m, lane_car, follower, .. } => {
-            contested_merge::cue_follower(v, v_max, ego_to_merge_m, &lane_car, &follower)
-        }
-    }
+    rules(scene).map_or_else(|| hold_back(scene, v), |r| (r.cue_follower)(scene, v, v_max))
 }
 
 pub struct Expert;

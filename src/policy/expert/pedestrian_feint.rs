@@ -5,6 +5,7 @@
 use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
+use crate::scenario::ScenarioKind;
 use crate::scenario::pedestrian_feint::{PATH_FAR, PATH_NEAR};
 
 /// Where the expert waits: this far before the crossing line.
@@ -49,6 +50,20 @@ fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
     }
     hedge(v, d - WAIT_GAP_M)
 }
+
+/// This scenario's rules, read from its scene (whose layout its scenario
+/// fixes; any other is given way to).
+pub(super) const RULES: super::Rules = super::Rules {
+    scenario: ScenarioKind::PedestrianFeint,
+    expert: |scene, v, v_max, _last| match scene.tracks() {
+        [pedestrian] => expert(v, v_max, scene.ego_to_conflict_m(), pedestrian),
+        _ => super::hold_back(scene, v),
+    },
+    cue_follower: |scene, v, v_max| match scene.tracks() {
+        [pedestrian] => cue_follower(v, v_max, scene.ego_to_conflict_m(), pedestrian),
+        _ => super::hold_back(scene, v),
+    },
+};
 
 /// The expert: give way to a pedestrian moving into or through the road,
 /// or standing at the kerb's edge (about to step in); keep a going pace

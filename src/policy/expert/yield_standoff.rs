@@ -5,6 +5,7 @@
 use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
+use crate::scenario::ScenarioKind;
 use crate::scenario::yield_standoff::HALF_ZONE;
 use crate::sim::{EGO_MAX_ACCEL, travel_time};
 
@@ -71,6 +72,20 @@ fn arrives_after(v: f64, v_max: f64, d: f64, car: &Track) -> bool {
     }
     travel_time(d.max(0.0), v, v_max, EGO_MAX_ACCEL) > (p + CONFLICT_ZONE_M) / vc + 0.3
 }
+
+/// This scenario's rules, read from its scene (whose layout its scenario
+/// fixes; any other is given way to).
+pub(super) const RULES: super::Rules = super::Rules {
+    scenario: ScenarioKind::YieldStandoff,
+    expert: |scene, v, v_max, last| match scene.tracks() {
+        [other, follower] => expert(v, v_max, scene.ego_to_conflict_m(), other, follower, last),
+        _ => super::hold_back(scene, v),
+    },
+    cue_follower: |scene, v, v_max| match scene.tracks() {
+        [other, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), other, follower),
+        _ => super::hold_back(scene, v),
+    },
+};
 
 /// The expert: go once the first car has stopped at its line or began to
 /// brake for the ego (and keep going while it stays slow), or once both
