@@ -20,8 +20,8 @@ use schemars::JsonSchema;
 use serde::Serialize;
 use serde_json::{Map, Value, json};
 
-/// The scenario a reset without `scenario` plays.
-pub(crate) const DEFAULT_SCENARIO: ScenarioKind = ScenarioKind::YieldStandoff;
+/// The scenario a reset without `scenario` plays: the benchmark's first.
+pub(crate) const DEFAULT_SCENARIO: ScenarioKind = ScenarioKind::ALL[0];
 /// The tier a reset without `tier` plays.
 pub(crate) const DEFAULT_TIER: Tier = Tier::T1;
 /// Seeds the server draws for a reset without one stay below 2^53, so that

@@ -53,6 +53,7 @@ impl ScenarioKind {
     pub fn name(self) -> &'static str {
         self.def().name
     }
+
     /// The neutral name of the scene's geometry, as the scene text prints
     /// it: it names the place, never a behaviour to expect.
     pub fn scene_name(self) -> &'static str {
@@ -631,7 +632,7 @@ pub(crate) fn episode_key(kind: ScenarioKind, tier: Tier, seed: u64) -> [u64; 3]
     [kind.rng_id(), tier.number() as u64, seed]
 }
 
-// A scenario added by a test (last, where the layer check stops reading).
+// A scenario added by a test.
 #[cfg(test)]
 mod toy;
 
@@ -644,6 +645,7 @@ mod tests {
     #[test]
     fn every_definition_is_whole_and_its_own() {
         let defs: Vec<_> = ScenarioKind::ALL.iter().map(|k| (*k, k.def())).collect();
+        assert!(ScenarioKind::ALL.is_sorted(), "ALL is in the order scenarios sort in (their RNG ids)");
         for (kind, def) in &defs {
             assert_eq!(def.name.parse::<ScenarioKind>().unwrap(), *kind);
             assert_eq!(ScenarioKind::from_scene_name(def.scene_name), Some(*kind));

@@ -5,8 +5,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-/// The top-level modules each module's code (comments and `#[cfg(test)]`
-/// items left out) refers to through `crate::` paths.
+/// The top-level modules each module's code (line comments and
+/// `#[cfg(test)]` items left out) refers to through `crate::` paths.
 fn import_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
     let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     let mut files = vec![src.to_path_buf()];
@@ -25,9 +25,10 @@ fn import_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
             continue;
         }
         let text = std::fs::read_to_string(&path).unwrap();
-        let code = text.split("#[cfg(test)]").next().unwrap();
+        let code: Vec<&str> = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect();
+        let code = without_test_items(&code.join("\n"));
         let uses = graph.entry(module.clone()).or_default();
-        for line in code.lines().map(str::trim).filter(|l| !l.starts_with("//")) {
+        for line in code.lines().map(str::trim) {
             // `crate::name` and `use crate::{a::..., b, ...}`.
             for (i, _) in line.match_indices("crate::") {
                 let rest = &line[i + "crate::".len()..];
@@ -45,6 +46,38 @@ fn import_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
         }
     }
     graph
+}
+
+/// The text with every `#[cfg(test)]` item left out: the attribute up to
+/// the end of the item it marks (its `;`, or the brace closing its body).
+fn without_test_items(text: &str) -> String {
+    const MARK: &str = "#[cfg(test)]";
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(at) = rest.find(MARK) {
+        out.push_str(&rest[..at]);
+        let item = &rest[at + MARK.len()..];
+        let end = match (item.find(';'), item.find('{')) {
+            (Some(semi), Some(open)) if semi < open => semi + 1,
+            (_, Some(open)) => {
+                let mut depth = 0usize;
+                let close = item[open..].char_indices().find_map(|(i, c)| {
+                    match c {
+                        '{' => depth += 1,
+                        '}' => depth -= 1,
+                        _ => {}
+                    }
+                    (depth == 0).then_some(open + i + 1)
+                });
+                close.unwrap_or(item.len())
+            }
+            (Some(semi), None) => semi + 1,
+            (None, None) => item.len(),
+        };
+        rest = &item[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Whether `to` is reachable from `from`.
@@ -73,4 +106,12 @@ fn no_two_top_level_modules_import_each_other() {
         .flat_map(|(m, uses)| uses.iter().filter(|u| reaches(&graph, u, m)).map(move |u| format!("{m} -> {u}")))
         .collect();
     assert!(circles.is_empty(), "import circles: {circles:?}");
+}
+
+#[test]
+fn only_the_test_items_are_left_out() {
+    let text = "use crate::a;\n#[cfg(test)]\nmod t;\nuse crate::b;\n#[cfg(test)]\nmod tests {\n    fn f() { let _ = crate::c; }\n}\nuse crate::d;\n";
+    let code = without_test_items(text);
+    assert!(["crate::a", "crate::b", "crate::d"].iter().all(|n| code.contains(n)), "{code}");
+    assert!(!code.contains("crate::c") && !code.contains("mod t"), "{code}");
 }
