@@ -7,7 +7,7 @@
 //! replicate statistics. Each statistic has its own fixed seed derived from
 //! what it is (so adding a model never changes another model's interval),
 //! and a per-(scenario, tier) cell's interval is `eval`'s summary's, one
-//! function ([`crate::stats::cell_success_ci`]).
+//! function (`stats::cell_success_ci`).
 
 use crate::stats::{IndexSampler, Interval, StatsError, paired_bootstrap_diff_ci, quantile, wilson_ci};
 pub use crate::stats::{cell_seed, seed_for};

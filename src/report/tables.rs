@@ -102,7 +102,7 @@ pub struct LeaderRow {
     /// episode of that scenario in scope.
     pub scenarios: Vec<Option<ScenarioCell>>,
     /// Decision correctness on the scenario of the leaderboard's DC column
-    /// ([`DcColumn`]).
+    /// (`DcColumn`).
     #[serde(flatten)]
     pub dc: DcValue,
     pub episodes: usize,
@@ -159,7 +159,7 @@ impl DcColumn {
     }
 }
 
-/// A row's value in the [`DcColumn`], serialised under the column's key
+/// A row's value in the `DcColumn`, serialised under the column's key
 /// (nothing without the column).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DcValue(pub Option<f64>);

@@ -21,7 +21,7 @@ pub use scene::Scene;
 pub use track::{HISTORY_LEN, HISTORY_SPACING_S, ReadingNoise, Sample, Track};
 pub use yield_standoff::YieldParams;
 
-/// A scenario: a handle on its one definition ([`ScenarioDef`], in the
+/// A scenario: a handle on its one definition (`ScenarioDef`, in the
 /// scenario's own file). Two handles are the same scenario when they name
 /// the same one; records and the command line spell it by name.
 #[derive(Clone, Copy)]

@@ -115,3 +115,29 @@ fn only_the_test_items_are_left_out() {
     assert!(["crate::a", "crate::b", "crate::d"].iter().all(|n| code.contains(n)), "{code}");
     assert!(!code.contains("crate::c") && !code.contains("mod t"), "{code}");
 }
+
+/// Every module says what it owns in a module doc (`//!` first), and the
+/// architecture page places every top-level module.
+#[test]
+fn every_module_has_a_doc_and_a_place_on_the_architecture_page() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let page = std::fs::read_to_string(src.join("../docs/architecture.md")).unwrap();
+    let mut files = vec![src.clone()];
+    let mut undocumented = Vec::new();
+    while let Some(path) = files.pop() {
+        if path.is_dir() {
+            files.extend(std::fs::read_dir(&path).unwrap().map(|e| e.unwrap().path()));
+        } else if path.extension().is_some_and(|e| e == "rs")
+            && !std::fs::read_to_string(&path).unwrap().starts_with("//!")
+        {
+            undocumented.push(path.strip_prefix(&src).unwrap().display().to_string());
+        }
+    }
+    assert!(undocumented.is_empty(), "no module doc: {undocumented:?}");
+    let unplaced: Vec<String> = std::fs::read_dir(&src)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().trim_end_matches(".rs").to_string())
+        .filter(|m| m != "lib" && m != "main" && !page.contains(&format!("src/{m}")))
+        .collect();
+    assert!(unplaced.is_empty(), "not on docs/architecture.md: {unplaced:?}");
+}
