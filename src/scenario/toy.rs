@@ -1,5 +1,5 @@
 //! A toy scenario added by a test, touching nothing but this file and its
-//! TOML (below): one car on a crossing road either drives through
+//! TOML (`tests/fixtures/toy_crossing.toml`): one car on a crossing road either drives through
 //! (`committed`) or stops at its line and waits for the ego (`yielder`).
 //! It shows that the episode loop, the scene text, the scene's JSON, the
 //! graders and the policies take a scenario from its definition alone. It
@@ -14,21 +14,7 @@ use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, EGO_MAX_ACCEL, travel_time};
 use serde::{Deserialize, Serialize};
 
-const TOML: &str = r#"
-scenario = "toy_crossing"
-
-[episode]
-turn_budget = 30
-speed_limit_mps = 12.0
-
-[ego]
-start_distance_m = [24.0, 30.0]
-start_speed_mps = [7.0, 9.0]
-
-[car]
-approach_speed_mps = [5.0, 6.0]
-stop_line_m = 1.0
-"#;
+const TOML: &str = include_str!("../../tests/fixtures/toy_crossing.toml");
 
 static DEF: ScenarioDef = ScenarioDef {
     name: "toy_crossing",
@@ -51,7 +37,7 @@ static DEF: ScenarioDef = ScenarioDef {
     belief_question: "the crossing car will let you through first",
     tier_mechanics: ["the same", "the same"],
     leaderboard_dc: None,
-    builtin_file: ("toy.toml", TOML),
+    builtin_file: ("tests/fixtures/toy_crossing.toml", TOML),
     load: super::load::<ToyParams>,
 };
 
@@ -111,6 +97,7 @@ impl super::ScenarioParams for ToyParams {
             car,
             stop_at: -HALF_ZONE - self.car.stop_line_m,
             yields: disposition == Disposition::Yielder,
+            approach_speed: car_v,
             history: History::steady(now, -car_v),
         })
     }
@@ -126,6 +113,8 @@ struct ToyWorld {
     /// Where a yielder's front bumper comes to rest.
     stop_at: f64,
     yields: bool,
+    /// The speed it approached at (m/s).
+    approach_speed: f64,
     history: History,
 }
 
@@ -170,7 +159,7 @@ impl World for ToyWorld {
     }
 
     fn revealed(&self) -> bool {
-        self.yields && self.car.v < 0.8 * self.history_speed()
+        self.yields && self.car.v < 0.8 * self.approach_speed
     }
 
     fn ego_to_conflict(&self, ego: &Body) -> f64 {
@@ -190,14 +179,6 @@ impl World for ToyWorld {
 
     fn plan(&self, ego: &Body) -> Vec<PlanPoint> {
         vec![PlanPoint { x: 0.0, y: ego.s, v: ego.v }, PlanPoint { x: self.car.s, y: 0.0, v: self.car.v }]
-    }
-}
-
-impl ToyWorld {
-    /// The speed it approached at (its oldest remembered reading).
-    fn history_speed(&self) -> f64 {
-        let mut history = self.history;
-        history.track(Sample { position_m: 0.0, velocity_mps: 0.0 }).past[0].velocity_mps
     }
 }
 
