@@ -79,7 +79,7 @@ pub(crate) type Loaded = Result<Arc<dyn ScenarioParams>, ScenarioError>;
 
 /// One scenario's parameters, as its TOML file sets them: they build the
 /// scenario's world.
-pub(crate) trait ScenarioParams: std::fmt::Debug + Send + Sync {
+pub(crate) trait ScenarioParams: ParamsJson + std::fmt::Debug + Send + Sync {
     /// The parameters every scenario file has.
     fn common(&self) -> &Common;
     /// Check every field's range; the error names the field.
@@ -93,8 +93,18 @@ pub(crate) trait ScenarioParams: std::fmt::Debug + Send + Sync {
         geometry: &mut EpisodeRng,
         noise: EpisodeRng,
     ) -> Box<dyn World + Send>;
-    /// The parameters as JSON (what the run's scenario hash covers).
+}
+
+/// Parameters as JSON (what the run's scenario hash covers): any
+/// serialisable parameters have it.
+pub(crate) trait ParamsJson {
     fn to_json(&self) -> serde_json::Value;
+}
+
+impl<P: serde::Serialize> ParamsJson for P {
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("scenario parameters serialise")
+    }
 }
 
 /// Parse a scenario's parameters of type `P` from TOML text and check them.

@@ -101,10 +101,6 @@ impl super::ScenarioParams for ToyParams {
             history: History::steady(now, -car_v),
         })
     }
-
-    fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(self).expect("toy parameters serialise")
-    }
 }
 
 struct ToyWorld {

@@ -195,10 +195,6 @@ impl super::ScenarioParams for YieldParams {
         Box::new(YieldWorld::new(self, tier, disposition, geometry))
     }
 
-    fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(self).expect("scenario parameters serialise")
-    }
-
     fn validate(&self, c: &FieldCheck) -> Result<(), ScenarioError> {
         self.episode.validate(c)?;
         c.range_within("ego.start_distance_m", self.ego.start_distance_m, 10.0, 200.0)?;
