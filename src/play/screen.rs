@@ -193,4 +193,32 @@ mod tests {
         };
         insta::assert_snapshot!(screen_text(&s));
     }
+
+    /// The plan view alone, as text.
+    fn plan_text(o: &Observation) -> String {
+        let mut t = Terminal::new(TestBackend::new(40, 20)).unwrap();
+        t.draw(|f| draw_plan(f, f.area(), o)).unwrap();
+        let buffer = t.backend().buffer().clone();
+        (0..20).map(|y| (0..40).map(|x| buffer[(x, y)].symbol().to_string()).collect::<String>() + "\n").collect()
+    }
+
+    #[test]
+    fn the_plan_view_places_every_road_user_and_hides_the_disposition() {
+        let set = ScenarioSet::default();
+        for kind in ScenarioKind::ALL {
+            let config = set.get(kind);
+            let [a, b] = kind.dispositions();
+            for seed in 0..10 {
+                let first = |d| *Episode::with_disposition(config, Tier::T1, seed, d).observation();
+                let text = plan_text(&first(a));
+                assert_eq!(text, plan_text(&first(b)), "{kind} seed {seed}");
+                let letters: Vec<String> = (0..kind.plan_axes().road_users.len())
+                    .map(|k| kind.plan_axes().role(k)[..1].to_uppercase())
+                    .collect();
+                for letter in letters.iter().map(String::as_str).chain(["E"]) {
+                    assert!(text.contains(letter), "{kind} seed {seed}: no {letter} in\n{text}");
+                }
+            }
+        }
+    }
 }
