@@ -276,4 +276,18 @@ mod tests {
         assert_eq!(reader_wins, 40, "reading the car wins against both");
         assert_eq!(expert_collisions, 0);
     }
+
+    /// `validate`'s blind search runs on any scenario, and it catches this
+    /// toy's flaw: its yielder waits for the ego for ever, so hanging back
+    /// until a committed car would be through, then going, wins without
+    /// looking. A benchmark scenario needs a yielder whose patience runs out.
+    #[test]
+    fn the_blind_search_finds_that_the_toy_is_won_without_looking() {
+        use crate::adversary::{SearchSpec, TRAIN_SEED_BASE, evaluate, search};
+        let config = config();
+        let spec = SearchSpec { budget: 4_000, train_seed_base: TRAIN_SEED_BASE, search_seed: 1 };
+        let found = search(&config, Tier::T1, spec);
+        let held_out = evaluate(&config, Tier::T1, &found.best, &(0..200).collect::<Vec<u64>>());
+        assert!(held_out.success >= 0.95, "{}: {held_out:?}", found.best);
+    }
 }
