@@ -220,4 +220,28 @@ mod tests {
         assert_eq!(late.ego_to_conflict_m(), 25.0);
         assert_eq!(late.tracks(), then.tracks());
     }
+
+    #[test]
+    fn a_scene_reads_back_from_its_json_and_bad_json_is_named() {
+        for kind in ScenarioKind::ALL {
+            let tracks: Vec<Track> = (0..kind.track_labels().len()).map(|k| track(k as f64 - 1.5, 4.25)).collect();
+            let place: Vec<f64> = (0..kind.place_numbers()).map(|k| 20.0 + k as f64).collect();
+            let scene = Scene::new(kind, &place, &tracks).unwrap();
+            let json = serde_json::to_value(scene).unwrap();
+            assert_eq!(json["scenario"], kind.name());
+            assert_eq!(serde_json::from_value::<Scene>(json.clone()).unwrap(), scene, "{kind}");
+            let field = kind.def().place_fields[0];
+            let mut missing = json.clone();
+            missing.as_object_mut().unwrap().remove(field);
+            let e = serde_json::from_value::<Scene>(missing).unwrap_err().to_string();
+            assert!(e.contains(field), "{e}");
+            let mut extra = json;
+            extra.as_object_mut().unwrap().insert("hidden".into(), 1.into());
+            let e = serde_json::from_value::<Scene>(extra).unwrap_err().to_string();
+            assert!(e.contains("hidden"), "{e}");
+        }
+        assert!(Scene::new(ScenarioKind::PedestrianFeint, &[1.0], &[]).is_none(), "a layout's counts are checked");
+        let e = serde_json::from_str::<Scene>(r#"{"scenario": "four_way"}"#).unwrap_err().to_string();
+        assert!(e.contains("unknown scenario 'four_way'"), "{e}");
+    }
 }
