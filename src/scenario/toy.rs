@@ -1,6 +1,7 @@
 //! A toy scenario added by a test, touching nothing but this file and its
-//! TOML (`tests/fixtures/toy_crossing.toml`): one car on a crossing road either drives through
-//! (`committed`) or stops at its line and waits for the ego (`yielder`).
+//! TOML (`tests/fixtures/toy_crossing.toml`): one car on a crossing road
+//! either drives through (`committed`) or stops at its line and waits for
+//! the ego (`yielder`).
 //! It shows that the episode loop, the scene text, the scene's JSON, the
 //! graders and the policies take a scenario from its definition alone. It
 //! is not one of the benchmark's scenarios (`ScenarioKind::ALL`), so it is

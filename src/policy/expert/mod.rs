@@ -32,8 +32,8 @@ pub(crate) struct Rules {
 const RULES: [&Rules; 3] = [&yield_standoff::RULES, &pedestrian_feint::RULES, &contested_merge::RULES];
 
 /// The rules of the scene's scenario. A scenario without rules here is
-/// played by giving way short of the conflict, which `validate`'s expert lines
-/// would show at once.
+/// played by giving way short of the conflict (a test holds every scenario
+/// of the benchmark to having rules).
 fn rules(scene: &Scene) -> Option<&'static Rules> {
     RULES.into_iter().find(|r| r.scenario == scene.kind())
 }
@@ -122,6 +122,13 @@ impl Policy for CueFollower {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_scenario_of_the_benchmark_has_its_rules() {
+        for kind in crate::scenario::ScenarioKind::ALL {
+            assert_eq!(RULES.iter().filter(|r| r.scenario == kind).count(), 1, "{kind}");
+        }
+    }
     use crate::episode::run_episode;
     use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 
