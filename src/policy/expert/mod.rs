@@ -122,15 +122,15 @@ impl Policy for CueFollower {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::episode::run_episode;
+    use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 
     #[test]
     fn every_scenario_of_the_benchmark_has_its_rules() {
-        for kind in crate::scenario::ScenarioKind::ALL {
+        for kind in ScenarioKind::ALL {
             assert_eq!(RULES.iter().filter(|r| r.scenario == kind).count(), 1, "{kind}");
         }
     }
-    use crate::episode::run_episode;
-    use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 
     #[test]
     fn reading_zero_decisions_late_is_the_expert() {
