@@ -650,6 +650,9 @@ mod tests {
             assert_eq!(def.name.parse::<ScenarioKind>().unwrap(), *kind);
             assert_eq!(ScenarioKind::from_scene_name(def.scene_name), Some(*kind));
             assert_eq!(def.track_labels.len(), def.plan_axes.road_users.len(), "{kind}");
+            // The scene's layout fits a Scene (else Scene::new refuses every scene of it).
+            assert!((1..=scene::MAX_PLACE).contains(&def.place_fields.len()), "{kind}");
+            assert!(def.track_labels.len() <= scene::MAX_TRACKS, "{kind}");
             assert_ne!(def.dispositions[0], def.dispositions[1], "{kind}");
             assert!(def.dispositions[1].ego_should_go() && !def.dispositions[0].ego_should_go(), "{kind}");
             assert!(def.tier_mechanics.iter().all(|m| !m.is_empty()) && !def.situation.is_empty(), "{kind}");
