@@ -2,21 +2,23 @@
 //! `scripts/bench/env_server.sh`: SESSIONS concurrent sessions, each
 //! playing episodes (reset, then steps until `done`) for SECONDS; prints one
 //! JSON line with steps per second and step round-trip latency percentiles,
-//! and, given the server's PID, its CPU time per step and peak memory.
+//! and, given the server's PID, its CPU time per step (user + system, and
+//! each) and peak memory.
 //! `cargo run --release --example ws_load -- URL SESSIONS SECONDS RESET_JSON ACTION_JSON [PID]`
 use futures_util::{SinkExt, StreamExt};
 use std::time::{Duration, Instant};
 use tokio_tungstenite::tungstenite::Message;
 
-/// User + system CPU seconds of a process, and its peak resident memory (KiB).
-fn process_usage(pid: u32) -> Option<(f64, u64)> {
+/// User and system CPU seconds of a process, and its peak resident memory (KiB).
+fn process_usage(pid: u32) -> Option<((f64, f64), u64)> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     let after = &stat[stat.rfind(')')? + 2..];
     let fields: Vec<&str> = after.split_whitespace().collect();
-    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    let user: f64 = fields.get(11)?.parse().ok()?;
+    let system: f64 = fields.get(12)?.parse().ok()?;
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
     let hwm = status.lines().find(|l| l.starts_with("VmHWM:"))?.split_whitespace().nth(1)?.parse().ok()?;
-    Some((ticks / 100.0, hwm))
+    Some(((user / 100.0, system / 100.0), hwm))
 }
 
 async fn session(url: String, until: Instant, reset: String, action: String) -> Vec<u32> {
@@ -83,8 +85,8 @@ fn main() {
     all.sort_unstable();
     let pct = |p: f64| all.get(((all.len() as f64 - 1.0) * p).round() as usize).map_or(0.0, |&us| us as f64 / 1000.0);
     let steps = all.len() as f64;
-    let cpu = match (before, after) {
-        (Some((b, _)), Some((a, _))) if steps > 0.0 => serde_json::json!((a - b) / steps * 1e6),
+    let per_step = |pick: fn((f64, f64)) -> f64| match (before, after) {
+        (Some((b, _)), Some((a, _))) if steps > 0.0 => serde_json::json!((pick(a) - pick(b)) / steps * 1e6),
         _ => serde_json::Value::Null,
     };
     let line = serde_json::json!({
@@ -92,7 +94,9 @@ fn main() {
         "steps": all.len(),
         "steps_per_s": steps / elapsed,
         "latency_ms": {"p50": pct(0.50), "p90": pct(0.90), "p99": pct(0.99)},
-        "server_cpu_us_per_step": cpu,
+        "server_cpu_us_per_step": per_step(|(user, system)| user + system),
+        "server_user_us_per_step": per_step(|(user, _)| user),
+        "server_system_us_per_step": per_step(|(_, system)| system),
         "server_peak_rss_mib": after.map(|(_, kb)| kb as f64 / 1024.0),
     });
     println!("{line}");

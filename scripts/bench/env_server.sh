@@ -5,8 +5,8 @@
 # environment server. One run, same machine, same load generator
 # (examples/ws_load.rs, Rust, so the client is not the bottleneck), at 1, 64
 # and 512 concurrent WebSocket sessions. Prints a Markdown table: steps per
-# second, step round-trip latency percentiles, server CPU (user + system)
-# per step, and peak server memory.
+# second, step round-trip latency percentiles, server CPU per step (user +
+# system, and each), and peak server memory.
 # Usage: scripts/bench/env_server.sh [SECONDS per row, default 10]
 # Needs the `newest` venv of scripts/openenv_check.sh (created if missing).
 set -euo pipefail
@@ -52,12 +52,13 @@ r = json.loads(sys.argv[2])
 l = r["latency_ms"]
 cells = [sys.argv[1], str(r["sessions"]), format(r["steps_per_s"], ",.0f"),
          "%.2f / %.2f / %.2f" % (l["p50"], l["p90"], l["p99"]),
-         "%.1f" % r["server_cpu_us_per_step"], "%.0f" % r["server_peak_rss_mib"]]
+         "%.1f (%.1f + %.1f)" % (r["server_cpu_us_per_step"], r["server_user_us_per_step"], r["server_system_us_per_step"]),
+         "%.0f" % r["server_peak_rss_mib"]]
 print("| " + " | ".join(cells) + " |")
 ' "$1" "$r"
 }
 
-echo "| server | sessions | steps/s | step latency p50 / p90 / p99 (ms) | server CPU per step (us) | peak server memory (MiB) |"
+echo "| server | sessions | steps/s | step latency p50 / p90 / p99 (ms) | server CPU per step, us (user + system) | peak server memory (MiB) |"
 echo "|---|---:|---:|---|---:|---:|"
 for n in 1 64 512; do
   row "OpenEnv Python, trivial env" "$n" "ws://127.0.0.1:$python_port/ws" "$python_pid" '{}' '{"value": 1}'

@@ -36,6 +36,7 @@
 mod features;
 mod schema;
 mod session;
+mod wire;
 
 use axum::Router;
 use axum::body::Bytes;
@@ -417,6 +418,10 @@ enum WsReply {
     Close,
 }
 
+/// Room for an answer: a full observation is 2 to 4 KB, and a buffer
+/// grown by doubling from serde_json's 128 bytes is copied five times.
+const ANSWER_CAPACITY: usize = 4096;
+
 /// `{"type": kind, "data": data}`.
 fn outgoing<T: serde::Serialize>(kind: &'static str, data: &T) -> String {
     #[derive(serde::Serialize)]
@@ -425,7 +430,7 @@ fn outgoing<T: serde::Serialize>(kind: &'static str, data: &T) -> String {
         kind: &'static str,
         data: &'a T,
     }
-    serde_json::to_string(&Outgoing { kind, data }).expect("an answer serialises")
+    wire::to_json(&Outgoing { kind, data }, ANSWER_CAPACITY)
 }
 
 /// Handle one text message of a WebSocket session.
@@ -536,9 +541,16 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
     };
     let mut session = Session::default();
     let timeout = state.config.session_timeout;
+    // One idle timer for the session, pushed back on each message: moving a
+    // deadline later is an atomic store, where a `timeout` per message would
+    // insert and remove a timer entry under the timer's lock every step.
+    let idle = tokio::time::sleep(timeout);
+    tokio::pin!(idle);
     loop {
-        let message = match tokio::time::timeout(timeout, socket.recv()).await {
-            Err(_) => {
+        let message = tokio::select! {
+            biased;
+            message = socket.recv() => message,
+            () = &mut idle => {
                 state.stats.expired.fetch_add(1, Relaxed);
                 let notice = ws_error(
                     "SESSION_ERROR",
@@ -547,9 +559,12 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
                 let _ = send(&mut socket, &notice).await;
                 break;
             }
-            Ok(None | Some(Err(_))) => return,
-            Ok(Some(Ok(m))) => m,
         };
+        let message = match message {
+            None | Some(Err(_)) => return,
+            Some(Ok(m)) => m,
+        };
+        idle.as_mut().reset(tokio::time::Instant::now() + timeout);
         let reply = match message {
             Message::Text(text) => ws_message(&state, &mut session, text.as_str()),
             Message::Binary(_) => WsReply::Send(ws_error("INVALID_JSON", "binary frames are not read: send JSON text")),

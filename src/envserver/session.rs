@@ -255,12 +255,12 @@ pub(crate) struct EnvObservation {
     /// the first observation only (absent afterwards). A harness that adds
     /// no system prompt of its own forwards it with the first scene.
     /// Views `full` and `text`.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", serialize_with = "super::wire::text")]
     pub instructions: Option<String>,
     /// This turn's scene text, exactly the user message `eval` sends (the
     /// prompt `eval` renders is `instructions` as the system message, then
     /// one scene per turn). Views `full` and `text`.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", serialize_with = "super::wire::text")]
     pub scene: Option<String>,
     /// The public observation as structured values, rounded to the
     /// precision the scene text prints (the same information). Views

@@ -8,33 +8,51 @@ use std::fmt::Write;
 
 /// Format with one decimal, never "-0.0".
 pub(super) fn f1(x: f64) -> String {
-    fixed(x, 1)
+    Fixed(x, 1).to_string()
 }
 
-fn f2(x: f64) -> String {
-    fixed(x, 2)
-}
+/// `Fixed(x, N)` displays as `format!("{:.N$}", round_to(x, N))`, written from the
+/// rounded integer `round(x * 10^N)` on the stack instead of through the
+/// float formatter (whose exact path, flt2dec's grisu and dragon, showed in
+/// `env-server`'s profile, as did one small allocation per number: the scene
+/// is rendered every turn by `eval`, `serve` and `env-server`). The same
+/// text: `round_to` yields the double nearest `k / 10^N`, whose N-decimal
+/// rendering is `k`'s digits. Values whose `k` a double cannot hold exactly
+/// (and NaN, infinities) take the formatter.
+struct Fixed(f64, i32);
 
-/// `format!("{:.N$}", round_to(x, N))`, written from the rounded integer
-/// `round(x * 10^N)` instead of through the float formatter (whose exact
-/// path, flt2dec's grisu and dragon, showed in `env-server`'s profile: the
-/// scene is rendered every turn by `eval`, `serve` and `env-server`). The same text: `round_to` yields the double nearest
-/// `k / 10^N`, whose N-decimal rendering is `k`'s digits. Values whose `k`
-/// a double cannot hold exactly (and NaN, infinities) take the formatter.
-fn fixed(x: f64, digits: i32) -> String {
-    let scale = 10f64.powi(digits);
-    let k = (x * scale).round();
-    if !k.is_finite() || k.abs() >= 1e15 {
-        return format!("{:.*}", digits as usize, round_to(x, digits));
+impl std::fmt::Display for Fixed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Fixed(x, digits) = *self;
+        let k = (x * 10f64.powi(digits)).round();
+        if !k.is_finite() || k.abs() >= 1e15 {
+            return write!(f, "{:.*}", digits as usize, round_to(x, digits));
+        }
+        // |k| < 10^15: at most 15 digits, a point and a sign.
+        let mut buf = [0u8; 20];
+        let mut at = buf.len();
+        let mut push = |byte: u8| {
+            at -= 1;
+            buf[at] = byte;
+        };
+        let mut m = (k as i64).unsigned_abs();
+        for _ in 0..digits {
+            push(b'0' + (m % 10) as u8);
+            m /= 10;
+        }
+        push(b'.');
+        loop {
+            push(b'0' + (m % 10) as u8);
+            m /= 10;
+            if m == 0 {
+                break;
+            }
+        }
+        if k < 0.0 {
+            push(b'-');
+        }
+        f.write_str(std::str::from_utf8(&buf[at..]).expect("ASCII digits"))
     }
-    let k = k as i64;
-    let unit = 10i64.pow(digits as u32);
-    let mut out = String::with_capacity(12);
-    if k < 0 {
-        out.push('-');
-    }
-    let _ = write!(out, "{}.{:0width$}", k.abs() / unit, k.abs() % unit, width = digits as usize);
-    out
 }
 
 /// The road user's two lines, keyed by its label's `now` and `history` (the
@@ -42,9 +60,12 @@ fn fixed(x: f64, digits: i32) -> String {
 /// "21.0 m to the conflict zone, speed 9.4 m/s".
 fn track_lines(out: &mut String, label: &TrackLabel, t: &Track, now: impl Fn(&str, &str) -> String) {
     let _ = writeln!(out, "{}: {}", label.now, now(&f1(t.now.position_m), &f1(t.now.velocity_mps)));
-    let past: Vec<String> =
-        t.past.iter().map(|s| format!("{} m at {} m/s", f1(s.position_m), f1(s.velocity_mps))).collect();
-    let _ = writeln!(out, "{}: {}", label.history, past.join("; "));
+    let _ = write!(out, "{}: ", label.history);
+    for (i, s) in t.past.iter().enumerate() {
+        let separator = if i == 0 { "" } else { "; " };
+        let _ = write!(out, "{separator}{} m at {} m/s", Fixed(s.position_m, 1), Fixed(s.velocity_mps, 1));
+    }
+    out.push('\n');
 }
 
 /// Render an observation as the scene text of one user turn.
@@ -59,11 +80,11 @@ pub fn render_scene(obs: &Observation) -> String {
         let _ = writeln!(
             out,
             "Readings: the other road users' positions and speeds carry random noise of {} m and {} m/s (one standard deviation, drawn afresh each turn); your own are exact.",
-            f1(n.position_sd_m),
-            f1(n.speed_sd_mps)
+            Fixed(n.position_sd_m, 1),
+            Fixed(n.speed_sd_mps, 1)
         );
     }
-    let _ = writeln!(out, "Time: {} s", f1(obs.time_s));
+    let _ = writeln!(out, "Time: {} s", Fixed(obs.time_s, 1));
     let _ = writeln!(
         out,
         "Turn: {} of {} ({} left including this one; each action is held for 0.5 s)",
@@ -76,18 +97,22 @@ pub fn render_scene(obs: &Observation) -> String {
     let _ = writeln!(
         out,
         "You: speed {} m/s, acceleration {} m/s^2, {place}, {} m to your goal, speed limit {} m/s",
-        f1(e.speed_mps),
-        f1(e.accel_mps2),
-        f1(e.to_goal_m),
-        f1(e.speed_limit_mps)
+        Fixed(e.speed_mps, 1),
+        Fixed(e.accel_mps2, 1),
+        Fixed(e.to_goal_m, 1),
+        Fixed(e.speed_limit_mps, 1)
     );
     for (label, track) in kind.track_labels().iter().zip(obs.scene.tracks()) {
         track_lines(&mut out, label, track, |p, v| kind.track_now(p, v));
     }
     match obs.last_action {
         Some(a) => {
-            let _ =
-                writeln!(out, "Your last action: {}, acceleration {}", a.maneuver, f2(a.acceleration.clamp(-1.0, 1.0)));
+            let _ = writeln!(
+                out,
+                "Your last action: {}, acceleration {}",
+                a.maneuver,
+                Fixed(a.acceleration.clamp(-1.0, 1.0), 2)
+            );
         }
         None => {
             let _ = writeln!(out, "Your last action: none (first turn)");
@@ -100,6 +125,10 @@ pub fn render_scene(obs: &Observation) -> String {
 mod fixed_tests {
     use super::*;
     use proptest::prelude::*;
+
+    fn fixed(x: f64, digits: i32) -> String {
+        Fixed(x, digits).to_string()
+    }
 
     fn formatter(x: f64, digits: i32) -> String {
         format!("{:.*}", digits as usize, round_to(x, digits))
