@@ -112,10 +112,12 @@ fn string_literal(text: &str) -> String {
     const HIGH: u64 = ONES * 0x80;
     // Whether any byte of `word` is below 0x20, a quote or a backslash:
     // Mycroft's test for a byte below n (exact for n <= 0x80), on the word
-    // for 0x20 and on two xors of it for a zero byte.
-    let below = |word: u64, n: u64| word.wrapping_sub(ONES * n) & !word & HIGH != 0;
+    // for 0x20 and on two xors of it for a zero byte, without branches.
+    let below = |word: u64, n: u64| word.wrapping_sub(ONES * n) & !word;
     let special = |word: u64| {
-        below(word, 0x20) || below(word ^ (ONES * u64::from(b'"')), 1) || below(word ^ (ONES * u64::from(b'\\')), 1)
+        let quote = word ^ (ONES * u64::from(b'"'));
+        let backslash = word ^ (ONES * u64::from(b'\\'));
+        (below(word, 0x20) | below(quote, 1) | below(backslash, 1)) & HIGH != 0
     };
     let bytes = text.as_bytes();
     let mut out = String::with_capacity(bytes.len() + bytes.len() / 16 + 2);

@@ -24,18 +24,23 @@ struct Fixed(f64, i32);
 impl std::fmt::Display for Fixed {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let Fixed(x, digits) = *self;
-        let k = (x * 10f64.powi(digits)).round();
-        if !k.is_finite() || k.abs() >= 1e15 {
+        let scaled = x * 10f64.powi(digits);
+        if scaled.is_nan() || scaled.abs() >= 1e15 {
             return write!(f, "{:.*}", digits as usize, round_to(x, digits));
         }
-        // |k| < 10^15: at most 15 digits, a point and a sign.
+        // `scaled.round()` (half away from zero) without libm's call: the
+        // truncation is exact here, and so is the fraction it leaves.
+        let whole = scaled as i64;
+        let fraction = scaled - whole as f64;
+        let k = whole + i64::from(fraction >= 0.5) - i64::from(fraction <= -0.5);
+        // |k| <= 10^15: at most 16 digits, a point and a sign.
         let mut buf = [0u8; 20];
         let mut at = buf.len();
         let mut push = |byte: u8| {
             at -= 1;
             buf[at] = byte;
         };
-        let mut m = (k as i64).unsigned_abs();
+        let mut m = k.unsigned_abs();
         for _ in 0..digits {
             push(b'0' + (m % 10) as u8);
             m /= 10;
@@ -48,7 +53,7 @@ impl std::fmt::Display for Fixed {
                 break;
             }
         }
-        if k < 0.0 {
+        if k < 0 {
             push(b'-');
         }
         f.write_str(std::str::from_utf8(&buf[at..]).expect("ASCII digits"))
