@@ -205,6 +205,26 @@ fn sessions_past_the_limit_are_refused_with_the_capacity_error_and_idle_ones_exp
 }
 
 #[test]
+fn a_session_in_use_outlives_its_idle_timeout() {
+    // Each message pushes the idle deadline back: a client answering every
+    // 0.25 s keeps a session with a 1 s timeout for 2.5 s, then loses it
+    // once it goes quiet.
+    let server = EnvServer::start(&["--session-timeout", "1"]);
+    runtime().block_on(async {
+        let mut ws = connect(server.port()).await;
+        let reset = json!({"type": "reset", "data": {"seed": 1}});
+        assert_eq!(exchange(&mut ws, &reset).await.unwrap()["type"], "observation");
+        for _ in 0..10 {
+            tokio::time::sleep(Duration::from_millis(250)).await;
+            let state = exchange(&mut ws, &json!({"type": "state"})).await.expect("the session is still open");
+            assert_eq!(state["type"], "state", "{state}");
+        }
+        let notice = tokio::time::timeout(Duration::from_secs(5), next_json(&mut ws)).await.unwrap().unwrap();
+        assert_eq!(notice["data"]["code"], "SESSION_ERROR", "{notice}");
+    });
+}
+
+#[test]
 fn bad_flags_are_one_line_usage_errors() {
     for args in [
         &["env-server", "--max-sessions", "0"][..],
