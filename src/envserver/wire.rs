@@ -21,14 +21,15 @@
 //!
 //! Property tests hold both to serde_json's output on arbitrary input.
 
+use crate::observation::fixed_point;
 use serde::{Serialize, Serializer};
 use serde_json::ser::{CompactFormatter, Formatter};
 use serde_json::value::RawValue;
 use std::io;
 
 /// `value` as compact JSON, as `serde_json::to_string` writes it.
-/// `capacity` is a guess at its length (the previous answer's), so the
-/// buffer is not grown and copied several times per answer.
+/// `capacity` is a guess at its length, so that the buffer is not grown
+/// and copied several times per answer.
 pub(crate) fn to_json<T: Serialize>(value: &T, capacity: usize) -> String {
     let mut out = Vec::with_capacity(capacity);
     let mut serializer = serde_json::Serializer::with_formatter(&mut out, Decimals);
@@ -42,9 +43,8 @@ struct Decimals;
 
 impl Formatter for Decimals {
     fn write_f64<W: ?Sized + io::Write>(&mut self, writer: &mut W, value: f64) -> io::Result<()> {
-        let mut buffer = [0u8; 16];
-        match short_decimal(value, &mut buffer) {
-            Some(text) => writer.write_all(text),
+        match short_decimal(value, &mut [0; 24]) {
+            Some(text) => writer.write_all(text.as_bytes()),
             None => CompactFormatter.write_f64(writer, value),
         }
     }
@@ -52,7 +52,7 @@ impl Formatter for Decimals {
 
 /// `value`'s shortest round-trip decimal when it has at most two decimals
 /// and `0 < |value| < 10^9` or `value` is +0; None otherwise.
-fn short_decimal(value: f64, buffer: &mut [u8; 16]) -> Option<&[u8]> {
+fn short_decimal(value: f64, buffer: &mut [u8; 24]) -> Option<&str> {
     if value.is_nan() || value.abs() >= 1e9 || (value == 0.0 && value.is_sign_negative()) {
         return None;
     }
@@ -66,29 +66,7 @@ fn short_decimal(value: f64, buffer: &mut [u8; 16]) -> Option<&[u8]> {
         let k = (scaled + 0.5f64.copysign(scaled)) as i64 as f64;
         (k / scale == value).then_some((k, decimals))
     })?;
-    // |k| < 10^11: at most 11 digits, a point and a sign.
-    let mut at = buffer.len();
-    let mut push = |byte: u8| {
-        at -= 1;
-        buffer[at] = byte;
-    };
-    let mut m = (k as i64).unsigned_abs();
-    for _ in 0..decimals {
-        push(b'0' + (m % 10) as u8);
-        m /= 10;
-    }
-    push(b'.');
-    loop {
-        push(b'0' + (m % 10) as u8);
-        m /= 10;
-        if m == 0 {
-            break;
-        }
-    }
-    if k < 0.0 {
-        push(b'-');
-    }
-    Some(&buffer[at..])
+    Some(fixed_point(k as i64, decimals, buffer))
 }
 
 /// `#[serde(serialize_with)]` for an optional long text: escaped a word at
@@ -215,7 +193,7 @@ mod tests {
 
     #[test]
     fn the_short_path_is_taken_for_rounded_numbers() {
-        let mut buffer = [0u8; 16];
+        let mut buffer = [0; 24];
         for x in [0.0, 13.3, -4.25, 24.0, 123_456_789.12] {
             assert!(short_decimal(x, &mut buffer).is_some(), "{x}");
         }

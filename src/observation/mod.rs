@@ -7,6 +7,7 @@ mod parse;
 mod render;
 
 pub use parse::{SceneParseError, parse_scene};
+pub(crate) use render::fixed_point;
 pub use render::render_scene;
 
 use crate::action::Action;

@@ -11,14 +11,14 @@ pub(super) fn f1(x: f64) -> String {
     Fixed(x, 1).to_string()
 }
 
-/// `Fixed(x, N)` displays as `format!("{:.N$}", round_to(x, N))`, written from the
-/// rounded integer `round(x * 10^N)` on the stack instead of through the
-/// float formatter (whose exact path, flt2dec's grisu and dragon, showed in
-/// `env-server`'s profile, as did one small allocation per number: the scene
-/// is rendered every turn by `eval`, `serve` and `env-server`). The same
-/// text: `round_to` yields the double nearest `k / 10^N`, whose N-decimal
-/// rendering is `k`'s digits. Values whose `k` a double cannot hold exactly
-/// (and NaN, infinities) take the formatter.
+/// `Fixed(x, N)` displays as `format!("{:.N$}", round_to(x, N))`, written
+/// from the rounded integer `round(x * 10^N)` on the stack instead of
+/// through the float formatter (whose exact path, flt2dec's grisu and
+/// dragon, showed in `env-server`'s profile, as did one small allocation per
+/// number: the scene is rendered every turn by `eval`, `serve` and
+/// `env-server`). The same text: `round_to` yields the double nearest
+/// `k / 10^N`, whose N-decimal rendering is `k`'s digits. Values whose `k` a
+/// double cannot hold exactly (and NaN, infinities) take the formatter.
 struct Fixed(f64, i32);
 
 impl std::fmt::Display for Fixed {
@@ -33,31 +33,37 @@ impl std::fmt::Display for Fixed {
         let whole = scaled as i64;
         let fraction = scaled - whole as f64;
         let k = whole + i64::from(fraction >= 0.5) - i64::from(fraction <= -0.5);
-        // |k| <= 10^15: at most 16 digits, a point and a sign.
-        let mut buf = [0u8; 20];
-        let mut at = buf.len();
-        let mut push = |byte: u8| {
-            at -= 1;
-            buf[at] = byte;
-        };
-        let mut m = k.unsigned_abs();
-        for _ in 0..digits {
-            push(b'0' + (m % 10) as u8);
-            m /= 10;
-        }
-        push(b'.');
-        loop {
-            push(b'0' + (m % 10) as u8);
-            m /= 10;
-            if m == 0 {
-                break;
-            }
-        }
-        if k < 0 {
-            push(b'-');
-        }
-        f.write_str(std::str::from_utf8(&buf[at..]).expect("ASCII digits"))
+        f.write_str(fixed_point(k, digits as u32, &mut [0; 24]))
     }
+}
+
+/// `k / 10^decimals` written with exactly `decimals` decimals ("-0.05"
+/// for k = -5 and two decimals), into `buffer`: what `Fixed` and
+/// `env-server`'s number writer print once they hold the whole number.
+pub(crate) fn fixed_point(k: i64, decimals: u32, buffer: &mut [u8; 24]) -> &str {
+    // At most 19 digits, a leading zero, a point and a sign.
+    let mut at = buffer.len();
+    let mut push = |byte: u8| {
+        at -= 1;
+        buffer[at] = byte;
+    };
+    let mut m = k.unsigned_abs();
+    for _ in 0..decimals {
+        push(b'0' + (m % 10) as u8);
+        m /= 10;
+    }
+    push(b'.');
+    loop {
+        push(b'0' + (m % 10) as u8);
+        m /= 10;
+        if m == 0 {
+            break;
+        }
+    }
+    if k < 0 {
+        push(b'-');
+    }
+    std::str::from_utf8(&buffer[at..]).expect("ASCII digits")
 }
 
 /// The road user's two lines, keyed by its label's `now` and `history` (the
