@@ -1,9 +1,11 @@
-//! Simulator speed: one decision (5 physics steps) and one whole episode.
+//! Simulator speed: one decision (5 physics steps), one whole episode, and
+//! the scene text every front end renders each turn.
 //! Run: cargo bench --bench simulator
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use negotiator::action::{Action, Maneuver};
 use negotiator::episode::{Episode, run_episode};
+use negotiator::observation::render_scene;
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::{ScenarioKind, ScenarioSet, Tier};
 use std::hint::black_box;
@@ -21,6 +23,11 @@ fn bench(c: &mut Criterion) {
                 },
                 criterion::BatchSize::SmallInput,
             )
+        });
+        c.bench_function(&format!("{kind}/scene text"), |b| {
+            let mut ep = Episode::new(config, Tier::T3, 17);
+            ep.step(Action::new(Maneuver::Proceed, 0.5));
+            b.iter(|| black_box(render_scene(black_box(ep.observation()))))
         });
         c.bench_function(&format!("{kind}/episode (expert)"), |b| {
             let mut expert = PolicyKind::Expert.build();
