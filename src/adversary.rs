@@ -221,11 +221,14 @@ pub struct Score {
     pub success: f64,
     pub correctness: f64,
     pub reward: f64,
+    /// Episodes in which a road user that had waited for the ego started
+    /// into its path while the ego could no longer stop comfortably.
+    pub unstoppable_turns_taken: usize,
 }
 
 /// Play `plan` on one cell for each seed.
 pub fn evaluate(config: &ScenarioConfig, tier: Tier, plan: &BlindPlan, seeds: &[u64]) -> Score {
-    let (mut success, mut correctness, mut reward) = (0usize, 0.0, 0.0);
+    let (mut success, mut correctness, mut reward, mut unstoppable) = (0usize, 0.0, 0.0, 0usize);
     for &seed in seeds {
         let mut episode = Episode::new(config, tier, seed);
         // The evidence turn is not needed here; skipping the twin world
@@ -240,9 +243,16 @@ pub fn evaluate(config: &ScenarioConfig, tier: Tier, plan: &BlindPlan, seeds: &[
         success += (record.outcome == Outcome::Success) as usize;
         correctness += record.grades.decision_correctness;
         reward += record.grades.reward;
+        unstoppable += (record.grades.diagnostics.unstoppable_turns_taken > 0) as usize;
     }
     let n = seeds.len().max(1) as f64;
-    Score { episodes: seeds.len(), success: success as f64 / n, correctness: correctness / n, reward: reward / n }
+    Score {
+        episodes: seeds.len(),
+        success: success as f64 / n,
+        correctness: correctness / n,
+        reward: reward / n,
+        unstoppable_turns_taken: unstoppable,
+    }
 }
 
 /// What to search on one cell.

@@ -123,6 +123,11 @@ struct Tracker {
     jerk_ok_intervals: u32,
     intervals: u32,
     time_to_goal_s: Option<f64>,
+    /// The world's count of turns taken by road users that had waited for
+    /// the ego, as last seen, and how many of them began while the ego
+    /// could no longer stop comfortably.
+    turns_taken: u32,
+    unstoppable_turns_taken: u32,
 }
 
 pub struct Episode {
@@ -376,6 +381,7 @@ impl Episode {
             steps_this_turn += 1;
             self.track_step();
             self.track_conflict();
+            self.track_turns_taken();
             let contact = self.world.contact(&self.ego);
             self.tracker.min_gap_m = self.tracker.min_gap_m.min(contact.gap_m);
             if let Some(ttc) = contact.ttc_s {
@@ -462,6 +468,20 @@ impl Episode {
         }
     }
 
+    /// A road user that had been waiting for the ego started into its path
+    /// this step: count it when the ego could no longer stop comfortably
+    /// before the conflict (what no person at a kerb or a stop line does).
+    fn track_turns_taken(&mut self) {
+        let taken = self.world.turns_taken();
+        if taken > self.tracker.turns_taken {
+            let approach = EgoApproach::new(self.world.ego_to_conflict(&self.ego), &self.ego);
+            if !approach.can_stop_comfortably() {
+                self.tracker.unstoppable_turns_taken += taken - self.tracker.turns_taken;
+            }
+            self.tracker.turns_taken = taken;
+        }
+    }
+
     fn track_step(&mut self) {
         let a = self.ego.a;
         let tr = &mut self.tracker;
@@ -532,6 +552,7 @@ impl Episode {
             comfort,
             decisions: self.turn,
             duration_s: self.time(),
+            unstoppable_turns_taken: tr.unstoppable_turns_taken,
         };
         let grades = Grades {
             reward: grading::compute_episode_reward(outcome, &diagnostics),

@@ -70,6 +70,16 @@ pub struct Diagnostics {
     pub comfort: f64,
     pub decisions: u32,
     pub duration_s: f64,
+    /// Times a road user that had been waiting for the ego started into its
+    /// path while the ego could no longer stop comfortably before it (4
+    /// m/s^2 after a 0.5 s reaction). Road users accept gaps as people do,
+    /// so this is 0 (`validate` counts it); absent from records when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unstoppable_turns_taken: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// Scores of one episode.
@@ -133,6 +143,7 @@ mod tests {
             comfort,
             decisions: 1,
             duration_s: 1.0,
+            unstoppable_turns_taken: 0,
         }
     }
 

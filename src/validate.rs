@@ -21,6 +21,9 @@ pub const CONSTANT_CORRECTNESS: f64 = 0.60;
 pub const FOLLOWS_EVIDENCE: f64 = 0.95;
 pub const LATE_READER: f64 = 0.85;
 pub const TWO_LATE_READER: f64 = 0.60;
+/// The cautious readers' bars: success and collision rate on every cell.
+pub const CAUTIOUS_SUCCESS: f64 = 0.85;
+pub const CAUTIOUS_COLLISION: f64 = 0.02;
 /// The longest reading delay the slack measurement tries (decisions).
 pub const MAX_SLACK_LAG: usize = 6;
 
@@ -500,11 +503,81 @@ pub fn check_late_reader(late: &[LateCell]) -> Check {
     )
 }
 
+/// Caution is not a misreading: the expert's own rules driven with caution
+/// while unsure (`expert_cautious`, `expert_hedge`) succeed >= 0.85 on every
+/// cell with collisions <= 0.02. Hedging may cost reward, never the episode.
+pub fn check_caution(cells: &[CellSummary]) -> Check {
+    let mut pass = true;
+    let mut seen = false;
+    let mut worst: Option<(f64, String)> = None;
+    let mut worst_collision: Option<(f64, String)> = None;
+    for c in cells.iter().filter(|c| PolicyKind::CAUTIOUS_READERS.contains(&c.cell.policy)) {
+        seen = true;
+        let (s, k) = (c.success.estimate, c.collision.estimate);
+        pass &= s >= CAUTIOUS_SUCCESS && k <= CAUTIOUS_COLLISION;
+        let at = format!("{} on {}", c.cell.policy, label(c.cell.scenario, c.cell.tier));
+        if worst.as_ref().is_none_or(|(w, _)| s < *w) {
+            worst = Some((s, at.clone()));
+        }
+        if worst_collision.as_ref().is_none_or(|(w, _)| k > *w) {
+            worst_collision = Some((k, at));
+        }
+    }
+    let figure = match (worst, worst_collision) {
+        (Some(s), Some(k)) => format!(
+            "lowest success {:.3} ({}, bar {CAUTIOUS_SUCCESS:.2}); highest collision {:.3} ({}, bar {CAUTIOUS_COLLISION:.2})",
+            s.0, s.1, k.0, k.1
+        ),
+        _ => "no cautious cells".into(),
+    };
+    Check::new("caution not punished", pass && seen, figure)
+}
+
+/// Road users accept gaps as people do: across the built-in policies'
+/// episodes (`unstoppable` per cell: episodes in which a road user that
+/// had waited for the ego started into its path while the ego could no
+/// longer stop comfortably) and the blind search's best policies, none.
+pub fn check_gap_acceptance(unstoppable: &[(Cell, usize)], blind: &[BlindCell]) -> Check {
+    let mut episodes = 0usize;
+    // (count, where), the largest first.
+    let mut found: Vec<(usize, String)> = unstoppable
+        .iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(cell, n)| (*n, format!("{} on {}", cell.policy, label(cell.scenario, cell.tier))))
+        .collect();
+    for b in blind {
+        for (which, score) in [("best blind", &b.held_out), ("most correct blind", &b.held_out_correctness)] {
+            episodes += score.episodes;
+            if score.unstoppable_turns_taken > 0 {
+                found.push((score.unstoppable_turns_taken, format!("{which} on {}", label(b.scenario, b.tier))));
+            }
+        }
+    }
+    found.sort_by(|a, b| b.0.cmp(&a.0).then_with(|| a.1.cmp(&b.1)));
+    let total: usize = found.iter().map(|(n, _)| n).sum();
+    let examples: Vec<String> = found.iter().take(4).map(|(n, at)| format!("{at} x{n}")).collect();
+    let cells = unstoppable.len();
+    let figure = if examples.is_empty() {
+        format!(
+            "0 episodes in which a waiting road user started into an ego that could no longer stop ({cells} policy cells, {episodes} blind episodes)"
+        )
+    } else {
+        format!(
+            "{total} episodes in which a waiting road user started into an ego that could no longer stop, most on {}",
+            examples.join("; ")
+        )
+    };
+    Check::new("road users accept gaps", total == 0 && (cells > 0 || episodes > 0), figure)
+}
+
 /// Invariants the built-in scenarios are known not to meet yet: printed as
 /// OPEN, and not failing `validate` unless `strict`. A check goes here only
-/// with a note on the issue that tracks it. None today: the late-reader line
-/// gates since every cell gives a late reader slack.
-pub const OPEN_CHECKS: [&str; 0] = [];
+/// with a note on the issue that tracks it. Today: the road users still
+/// count hang-back cumulatively and may start in front of an ego braking
+/// late, which is what keeps a late stop from beating them blind; making
+/// them accept gaps as people do, with caution unpunished and blind play
+/// still losing, is a redesign of the worlds (docs/validate.md).
+pub const OPEN_CHECKS: [&str; 2] = ["caution not punished", "road users accept gaps"];
 
 /// Run every invariant at `n` seeds per cell; the blind-policy search spends
 /// `search_budget` episodes per cell. `strict`: every check gates, the open
@@ -518,12 +591,17 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, st
         seed_base,
     };
     let expert_timings = std::sync::Mutex::new(Vec::new());
+    let unstoppable = std::sync::Mutex::new(Vec::new());
     let cells = run_grid(set, &spec, &|cell, records| {
         if cell.policy == PolicyKind::Expert {
             let mut t = expert_timings.lock().unwrap_or_else(|e| e.into_inner());
             t.extend(records.iter().map(|r| r.timing));
         }
+        let n = records.iter().filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0).count();
+        unstoppable.lock().unwrap_or_else(|e| e.into_inner()).push((cell, n));
     });
+    let mut unstoppable = unstoppable.into_inner().unwrap_or_else(|e| e.into_inner());
+    unstoppable.sort_by_key(|(c, _)| (c.scenario, c.tier, c.policy));
     let seeds = seed_base..seed_base + n as u64;
     let (hidden, observations) =
         check_hidden_disposition(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone(), &|e: &Episode| {
@@ -543,6 +621,8 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, st
         check_correctness(&cells),
         check_follows_evidence(&timings),
         check_late_reader(&late),
+        check_caution(&cells),
+        check_gap_acceptance(&unstoppable, &blind),
     ];
     for c in &mut checks {
         c.gating = strict || !OPEN_CHECKS.contains(&c.name);

@@ -21,7 +21,7 @@ pub struct ValidateArgs {
     #[arg(long, default_value_t = crate::adversary::DEFAULT_BUDGET, value_name = "N")]
     pub search_budget: usize,
     /// Make every check gating, including any the built-in scenarios are
-    /// known not to meet yet (printed as OPEN otherwise; none today).
+    /// known not to meet yet (printed as OPEN otherwise; docs/validate.md lists them).
     #[arg(long)]
     pub strict: bool,
     /// Print the checks as JSON.

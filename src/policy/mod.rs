@@ -4,7 +4,7 @@
 mod expert;
 mod simple;
 
-pub use expert::{CueFollower, Expert, ExpertLate};
+pub use expert::{CueFollower, Expert, ExpertCautious, ExpertHedge, ExpertLate, MODERATE_FRACTION};
 pub use simple::{AlwaysProceed, AlwaysStop, Cautious, RandomPolicy};
 
 use crate::action::{Action, Maneuver};
@@ -46,10 +46,12 @@ pub enum PolicyKind {
     Random,
     CueFollower,
     ExpertLate,
+    ExpertCautious,
+    ExpertHedge,
 }
 
 impl PolicyKind {
-    pub const ALL: [PolicyKind; 7] = [
+    pub const ALL: [PolicyKind; 9] = [
         PolicyKind::Expert,
         PolicyKind::AlwaysProceed,
         PolicyKind::AlwaysStop,
@@ -57,7 +59,12 @@ impl PolicyKind {
         PolicyKind::Random,
         PolicyKind::CueFollower,
         PolicyKind::ExpertLate,
+        PolicyKind::ExpertCautious,
+        PolicyKind::ExpertHedge,
     ];
+    /// The expert's rules driven with caution while unsure (`validate`'s
+    /// "caution is not punished" line).
+    pub const CAUTIOUS_READERS: [PolicyKind; 2] = [PolicyKind::ExpertCautious, PolicyKind::ExpertHedge];
     /// Policies that ignore the state entirely (the anti-gaming invariant).
     pub const STATE_IGNORANT: [PolicyKind; 4] =
         [PolicyKind::AlwaysProceed, PolicyKind::AlwaysStop, PolicyKind::Cautious, PolicyKind::Random];
@@ -73,6 +80,8 @@ impl PolicyKind {
             PolicyKind::Random => "random",
             PolicyKind::CueFollower => "cue_follower",
             PolicyKind::ExpertLate => "expert_late",
+            PolicyKind::ExpertCautious => "expert_cautious",
+            PolicyKind::ExpertHedge => "expert_hedge",
         }
     }
 
@@ -85,6 +94,8 @@ impl PolicyKind {
             PolicyKind::Random => Box::new(RandomPolicy::default()),
             PolicyKind::CueFollower => Box::new(CueFollower),
             PolicyKind::ExpertLate => Box::new(ExpertLate::new(1)),
+            PolicyKind::ExpertCautious => Box::new(ExpertCautious),
+            PolicyKind::ExpertHedge => Box::new(ExpertHedge),
         }
     }
 }
@@ -97,7 +108,7 @@ impl fmt::Display for PolicyKind {
 
 #[derive(Debug, thiserror::Error)]
 #[error(
-    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower or expert_late)"
+    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower, expert_late, expert_cautious or expert_hedge)"
 )]
 pub struct UnknownPolicy(String);
 

@@ -348,6 +348,8 @@ pub struct MergeWorld {
     /// same ego: a car making room measures the ego's pace against it.
     shadow: Body,
     patience: Patience,
+    /// Times a car making room took its turn in front of the ego.
+    turns_taken: u32,
     revealed: bool,
     noise: Option<EpisodeRng>,
     /// The noisy readings of the last observation (tier 2 only).
@@ -383,8 +385,12 @@ impl MergeWorld {
         let mut noise = (tier == Tier::T2).then_some(noise);
         let lane_now = Sample { position_m: x_lane - ego_start.s, velocity_mps: cruise };
         let follower_now = Sample { position_m: x_lane - follower_gap - ego_start.s, velocity_mps: cruise };
-        let lane_history = History::steady(observe_noisy(&mut noise, &params.tier2, lane_now), rel_rate);
-        let follower_history = History::steady(observe_noisy(&mut noise, &params.tier2, follower_now), rel_rate);
+        // Every sample of it carries its own reading noise: a noisy tier is
+        // noisy from its first reading, under both dispositions alike.
+        let lane_history =
+            History::steady_observed(lane_now, rel_rate, |s| observe_noisy(&mut noise, &params.tier2, s));
+        let follower_history =
+            History::steady_observed(follower_now, rel_rate, |s| observe_noisy(&mut noise, &params.tier2, s));
         MergeWorld {
             tier,
             disposition,
@@ -397,6 +403,7 @@ impl MergeWorld {
             phase,
             shadow: Body::new(x_lane, cruise),
             patience: Patience::new(patience),
+            turns_taken: 0,
             revealed: tier != Tier::T3,
             noise,
             readings: Vec::new(),
@@ -602,6 +609,7 @@ impl MergeWorld {
             }
             let out = self.patience.run_out() || self.ego_brakes_late(ego);
             if shown && out && covering {
+                self.turns_taken += 1;
                 self.phase = Phase::TakeTurn;
             }
         }
@@ -731,6 +739,10 @@ impl World for MergeWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn turns_taken(&self) -> u32 {
+        self.turns_taken
     }
 
     fn noisy_readings(&self) -> &[NoisyReading] {

@@ -725,14 +725,11 @@ mod tests {
             }
         }
         assert_eq!(checked, 480);
-        // The situation paragraph prints the same kerbs, and the in-path band (its bounds excluded: the
-        // pedestrian is in the path strictly inside them) as the positions it prints to 0.1 m.
+        // The situation paragraph prints the same kerbs, and the band of the pedestrian's centre in
+        // which its body overlaps the car's path (its bounds excluded), as the frame draws them.
         let stated = format!(
-            "{} = kerb, {:.1} to {:.1} = in your path, {:.1} = far kerb",
-            frame.marks[0].0,
-            (frame.in_path.0 * 10.0).floor() / 10.0 + 0.1,
-            (frame.in_path.1 * 10.0).ceil() / 10.0 - 0.1,
-            frame.marks[1].0
+            "{} = kerb, {:.1} = far kerb; with its centre between {:.1} and {:.1} its body overlaps your car's path",
+            frame.marks[0].0, frame.marks[1].0, frame.in_path.0, frame.in_path.1
         );
         assert!(ScenarioKind::PedestrianFeint.situation().contains(&stated), "{stated}");
     }

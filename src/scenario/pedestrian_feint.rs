@@ -97,7 +97,7 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     place_fields: &["ego_to_crosswalk_m"],
     place_text: |n| format!("{} m to the crosswalk", n[0]),
     tracks_relative_to_ego: false,
-    situation: "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 0.6 to 2.9 = in your path, 7.0 = far kerb. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.",
+    situation: "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 7.0 = far kerb; with its centre between 0.5 and 3.0 its body overlaps your car's path. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.",
     track_labels: &[TrackLabel {
         now: "Pedestrian",
         history: "Pedestrian over the last 2 s (oldest first)",
@@ -301,6 +301,9 @@ pub struct PedestrianWorld {
     /// edge (s, continuous), and how long that takes to invite it.
     invited_for: f64,
     invite: f64,
+    /// Times the pedestrian, having waited for the ego, took its turn (a
+    /// feinter giving up, a crosser at the edge taking an invitation).
+    turns_taken: u32,
     revealed: bool,
     history: History,
 }
@@ -366,6 +369,7 @@ impl PedestrianWorld {
             dart_at: None,
             invited_for: 0.0,
             invite,
+            turns_taken: 0,
             revealed: false,
             history: History::steady(Sample { position_m: lat, velocity_mps: vel }, vel),
         }
@@ -465,10 +469,13 @@ impl World for PedestrianWorld {
                             }
                             // A car hanging back gives way to it: an invitation.
                             self.invited_for = if hanging_back { self.invited_for + dt } else { 0.0 };
-                            let dart = self.dart_at.is_some_and(|d| t + 1e-9 >= d)
-                                || self.invited_for + 1e-9 >= self.invite
-                                || t - since + 1e-9 >= self.linger;
+                            let triggered = self.dart_at.is_some_and(|d| t + 1e-9 >= d);
+                            let invited = self.invited_for + 1e-9 >= self.invite;
+                            let dart = triggered || invited || t - since + 1e-9 >= self.linger;
                             if dart {
+                                // Taking the ego's invitation is taking a turn;
+                                // the dart and the linger are the crosser's own.
+                                self.turns_taken += (invited && !triggered) as u32;
                                 self.revealed = true;
                                 self.phase = Phase::Cross { speed: self.step_speed, accel: PED_ACCEL };
                             }
@@ -482,6 +489,7 @@ impl World for PedestrianWorld {
                     };
                     let deciding = t + 1e-9 >= decided + self.look;
                     if deciding && self.patience.run_out() {
+                        self.turns_taken += 1;
                         self.revealed = true;
                         self.phase = Phase::Cross {
                             speed: self.give_up_speed,
@@ -521,6 +529,10 @@ impl World for PedestrianWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn turns_taken(&self) -> u32 {
+        self.turns_taken
     }
 
     fn ego_to_conflict(&self, ego: &Body) -> f64 {

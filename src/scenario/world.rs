@@ -69,6 +69,15 @@ pub trait World {
     fn reading_noise(&self) -> Option<super::ReadingNoise> {
         None
     }
+    /// Privileged: how many times a road user that had been waiting for the
+    /// ego has started to take its turn into the ego's path (a feinter
+    /// stepping in, a crosser taking the ego's invitation, a stopped yielder
+    /// pulling away, a lane car passing an ego it covered). The episode
+    /// checks, at the step the count grows, that the ego could still stop
+    /// comfortably before the conflict ([`EgoApproach::can_stop_comfortably`]).
+    fn turns_taken(&self) -> u32 {
+        0
+    }
 }
 
 /// Time margin for a right-of-way violation.
@@ -90,6 +99,16 @@ impl History {
             s.position_m = now.position_m - position_rate * k * HISTORY_SPACING_S;
         }
         History { past }
+    }
+
+    /// [`History::steady`], each past sample read through `observe` (oldest
+    /// first): on a noisy tier, every sample shown carries its own noise.
+    pub fn steady_observed(now: Sample, position_rate: f64, mut observe: impl FnMut(Sample) -> Sample) -> Self {
+        let mut history = History::steady(now, position_rate);
+        for s in history.past.iter_mut() {
+            *s = observe(*s);
+        }
+        history
     }
 
     /// History of a road user that has been braking at `decel` (m/s^2,
@@ -216,4 +235,18 @@ impl EgoApproach {
     pub fn beyond_stopping(&self) -> bool {
         self.v * self.v / (2.0 * crate::sim::EGO_MAX_BRAKE) > self.to_conflict
     }
+
+    /// Whether the ego could still stop short of the conflict as a driver
+    /// does when someone steps out: after a reaction time, braking firmly
+    /// but not in an emergency ([`REACTION_S`], [`FIRM_BRAKE`]). No road
+    /// user that waits for the ego starts into its path when this is false.
+    pub fn can_stop_comfortably(&self) -> bool {
+        self.to_conflict > 0.0 && self.v * REACTION_S + self.v * self.v / (2.0 * FIRM_BRAKE) < self.to_conflict
+    }
 }
+
+/// A driver's reaction time to a road user stepping out (s).
+pub const REACTION_S: f64 = 0.5;
+/// Firm, non-emergency braking (m/s^2): what a road user that waits for the
+/// ego expects it to be able to stop with.
+pub const FIRM_BRAKE: f64 = 4.0;

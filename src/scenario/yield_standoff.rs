@@ -281,6 +281,8 @@ pub struct YieldWorld {
     revealed: bool,
     /// Hang-back the yielder tolerates once stopped.
     patience: Patience,
+    /// Times a stopped yielder took its turn in front of the ego.
+    turns_taken: u32,
     /// How long a tier-3 bluffer rolls at its floor for an ego that hangs back.
     hold: f64,
     /// Newell follower: lag (s) and jam spacing (m) behind the first car.
@@ -348,6 +350,7 @@ impl YieldWorld {
             profile_decel,
             revealed: false,
             patience: Patience::new(patience),
+            turns_taken: 0,
             hold,
             lag,
             spacing,
@@ -405,6 +408,7 @@ impl YieldWorld {
             }
             let passed = ego.s > HALF_ZONE;
             let turn = self.patience.run_out() && !self.approach(ego).beyond_stopping();
+            self.turns_taken += (turn && !passed) as u32;
             if passed || turn {
                 self.phase = Phase::Going { accel: self.params.other.go_accel_mps2 };
             }
@@ -511,6 +515,10 @@ impl World for YieldWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn turns_taken(&self) -> u32 {
+        self.turns_taken
     }
 
     fn ego_to_conflict(&self, ego: &Body) -> f64 {

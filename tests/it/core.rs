@@ -821,3 +821,74 @@ fn the_tier3_crosser_pauses_at_the_kerbs_edge_and_darts_at_a_car_that_took_it_fo
         .count();
     assert!(hit >= 30, "{hit} of 40 crossers hit by a car that took the pause for a wait");
 }
+
+/// A noisy tier is noisy from its first reading: the history shown before
+/// the episode starts carries the noise sample by sample (no exact cruise
+/// speed to read off it), and is the same under both dispositions.
+#[test]
+fn the_noisy_tier_is_noisy_from_its_first_reading() {
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::ContestedMerge);
+    let [a, b] = ScenarioKind::ContestedMerge.dispositions();
+    for seed in 0..20 {
+        let first = Episode::with_disposition(config, Tier::T2, seed, a);
+        let other = Episode::with_disposition(config, Tier::T2, seed, b);
+        assert_eq!(render_scene(first.observation()), render_scene(other.observation()), "seed {seed}");
+        for track in first.observation().scene.tracks() {
+            let speeds: Vec<f64> = track.past.iter().map(|s| s.velocity_mps).collect();
+            assert!(speeds.windows(2).any(|w| w[0] != w[1]), "seed {seed}: exact speeds {speeds:?}");
+            let steps: Vec<f64> = track.past.windows(2).map(|w| w[1].position_m - w[0].position_m).collect();
+            assert!(steps.windows(2).any(|w| (w[0] - w[1]).abs() > 1e-9), "seed {seed}: exact steps {steps:?}");
+        }
+    }
+}
+
+/// The realism line catches a road user that counts hang-back cumulatively
+/// and then starts in front of an ego that can no longer stop comfortably:
+/// the crosswalk's feinter as built today is one (an open line of
+/// `validate`). Every flagged episode is one in which a waiting road user
+/// did take its turn, and the check fails on it.
+#[test]
+fn the_realism_line_catches_a_cumulative_feinter_stepping_into_a_car_that_cannot_stop() {
+    use negotiator::baselines::{Cell, run_cell};
+    let set = ScenarioSet::default();
+    let mut flagged = Vec::new();
+    for policy in PolicyKind::ALL {
+        let cell = Cell { scenario: ScenarioKind::PedestrianFeint, tier: Tier::T1, policy };
+        let n = run_cell(&set, cell, 200, 0)
+            .iter()
+            .filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0)
+            .inspect(|r| assert_eq!(r.disposition.name(), "feinter", "only a feinter waits for the ego on tier 1"))
+            .count();
+        flagged.push((cell, n));
+    }
+    assert!(flagged.iter().any(|(_, n)| *n > 0), "{flagged:?}");
+    let check = validate::check_gap_acceptance(&flagged, &[]);
+    assert!(!check.pass, "{}", check.figure);
+    assert!(check.figure.contains("pedestrian_feint/t1"), "{}", check.figure);
+    let clean: Vec<_> = flagged.iter().map(|(c, _)| (*c, 0)).collect();
+    assert!(validate::check_gap_acceptance(&clean, &[]).pass);
+}
+
+/// The cautious readers are held to the expert's bar on every cell: the
+/// check fails on a cell below it (the crosswalk's delayed step-out today,
+/// an open line) and passes on the intersection, where caution is not
+/// punished.
+#[test]
+fn the_caution_line_holds_cautious_readers_to_their_bar() {
+    let set = ScenarioSet::default();
+    let cells = |kind: ScenarioKind, tier: Tier| {
+        let spec = GridSpec {
+            scenarios: vec![kind],
+            tiers: vec![tier],
+            policies: PolicyKind::CAUTIOUS_READERS.to_vec(),
+            episodes: 100,
+            seed_base: 0,
+        };
+        run_grid(&set, &spec, &|_, _| {})
+    };
+    let intersection = validate::check_caution(&cells(ScenarioKind::YieldStandoff, Tier::T2));
+    assert!(intersection.pass, "{}", intersection.figure);
+    let crosswalk = validate::check_caution(&cells(ScenarioKind::PedestrianFeint, Tier::T2));
+    assert!(!crosswalk.pass, "{}", crosswalk.figure);
+}

@@ -2,6 +2,7 @@
 //! public scene (the `Scene` a policy is given) and the scenario's public
 //! geometry, never its world: they live on the public side of the firewall.
 
+use super::{Move, gentler};
 use crate::action::Action;
 use crate::observation::Track;
 use crate::policy::{go, hedge};
@@ -73,13 +74,6 @@ fn toward(v: f64, target: f64) -> Action {
     }
 }
 
-/// The gentler (more braking) of two actions, by the acceleration each
-/// commands at speed `v`.
-fn gentler(v: f64, v_max: f64, a: Action, b: Action) -> Action {
-    let acc = |x: &Action| x.control().acceleration(v, v_max, crate::sim::DT);
-    if acc(&a) <= acc(&b) { a } else { b }
-}
-
 /// In the lane: full speed, but keep a safe gap to a lane car ahead.
 fn follow_in_lane(v: f64, v_max: f64, cars: [&Track; 2]) -> Action {
     let ahead =
@@ -100,7 +94,7 @@ pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::ContestedMerge,
     expert: |scene, v, v_max, _last| match scene.tracks() {
         [lane_car, follower] => expert(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),
-        _ => super::hold_back(scene, v),
+        _ => Move::not_yet(super::hold_back(scene, v)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
         [lane_car, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),
@@ -112,17 +106,21 @@ pub(super) const RULES: super::Rules = super::Rules {
 /// an ego that keeps pace); merge ahead once the lane car shows it makes
 /// room; otherwise let the lane car and its follower pass, keeping a stop
 /// before the merge point possible, and merge behind them.
-pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Action {
+pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Move {
     if d < 0.0 {
-        return follow_in_lane(v, v_max, [lane_car, follower]);
+        return Move::go(follow_in_lane(v, v_max, [lane_car, follower]));
     }
     if lane_has_room([lane_car, follower], v) {
-        return gentler(v, v_max, go(), follow_in_lane(v, v_max, [lane_car, follower]));
+        return Move::go(gentler(v, v_max, go(), follow_in_lane(v, v_max, [lane_car, follower])));
     }
-    // No sign yet of a car holding the lane (speeding up to keep the ego out).
+    if making_room(lane_car, v) {
+        return Move::go(go());
+    }
+    // No sign yet of a car holding the lane (speeding up to keep the ego
+    // out): keep pace while it may still make room.
     let undecided = speed_trend(lane_car) < 1.0 && lane_car.now.position_m.abs() < CAR_LENGTH + 1.0;
-    if making_room(lane_car, v) || (undecided && d > UNDECIDED_UNTIL_M) {
-        return go();
+    if undecided && d > UNDECIDED_UNTIL_M {
+        return Move::not_yet(go());
     }
     // Let both lane cars go first: arrive at the merge point once the last
     // of them has cleared it, never closer than a comfortable stop.
@@ -130,7 +128,7 @@ pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Tr
     let (rel, v_last) = (last.now.position_m, last.now.velocity_mps.max(1.0));
     let clear_in = (d - rel + CAR_LENGTH + 3.0) / v_last;
     let target = (d / clear_in).min(v_last - 1.0).max(0.0);
-    gentler(v, v_max, toward(v, target), hedge(v, d - WAIT_GAP_M))
+    Move::not_yet(gentler(v, v_max, toward(v, target), hedge(v, d - WAIT_GAP_M)))
 }
 
 /// The cue follower: merge whenever the lane car has dropped back (behind
@@ -145,6 +143,6 @@ pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, lane_car: &Track, followe
     if dropping_back || d < 0.0 || lane_has_room([lane_car, follower], v) {
         go()
     } else {
-        expert(v, v_max, d, lane_car, follower)
+        expert(v, v_max, d, lane_car, follower).action
     }
 }

@@ -15,7 +15,7 @@ mod pedestrian_feint;
 mod yield_standoff;
 
 use super::Policy;
-use crate::action::Action;
+use crate::action::{Action, Maneuver};
 use crate::observation::{Observation, Scene};
 use crate::scenario::ScenarioKind;
 
@@ -24,8 +24,30 @@ use crate::scenario::ScenarioKind;
 /// defines its own.
 pub(crate) struct Rules {
     scenario: ScenarioKind,
-    expert: fn(&Scene, f64, f64, Option<Action>) -> Action,
+    expert: fn(&Scene, f64, f64, Option<Action>) -> Move,
     cue_follower: fn(&Scene, f64, f64) -> Action,
+}
+
+/// What the expert's rules decide on one scene: the action, and whether it
+/// is the go they wait for (`go`), or anything short of it: keeping a pace
+/// or a stop possible while the intent is unknown, or giving way. The
+/// cautious baselines change only the moves short of a go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Move {
+    pub action: Action,
+    pub go: bool,
+}
+
+impl Move {
+    /// The go the rules wait for.
+    pub(crate) fn go(action: Action) -> Move {
+        Move { action, go: true }
+    }
+
+    /// Anything short of it.
+    pub(crate) fn not_yet(action: Action) -> Move {
+        Move { action, go: false }
+    }
 }
 
 /// Every scenario's rules.
@@ -44,9 +66,21 @@ fn hold_back(scene: &Scene, v: f64) -> Action {
     super::hedge(v, scene.ego_to_conflict_m())
 }
 
-/// The expert's action on `scene`: its scenario's rule.
+/// The expert's move on `scene`: its scenario's rule.
+fn expert_move(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Move {
+    rules(scene).map_or_else(|| Move::not_yet(hold_back(scene, v)), |r| (r.expert)(scene, v, v_max, last))
+}
+
+/// The expert's action on `scene`.
 fn expert_action(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Action {
-    rules(scene).map_or_else(|| hold_back(scene, v), |r| (r.expert)(scene, v, v_max, last))
+    expert_move(scene, v, v_max, last).action
+}
+
+/// Of two actions, the one that brakes harder (accelerates less) at speed
+/// `v`, by the acceleration each commands.
+pub(crate) fn gentler(v: f64, v_max: f64, a: Action, b: Action) -> Action {
+    let acc = |x: &Action| x.control().acceleration(v, v_max, crate::sim::DT);
+    if acc(&a) <= acc(&b) { a } else { b }
 }
 
 /// The cue follower's action on `scene`: its scenario's instantaneous-cue rule.
@@ -56,6 +90,25 @@ fn cue_action(scene: &Scene, v: f64, v_max: f64) -> Action {
 
 pub struct Expert;
 pub struct CueFollower;
+
+/// `yield` at this strength brakes at 0.5 + 3.5 x 0.25 = 1.375 m/s^2: the
+/// gentle braking of a driver who slows while unsure.
+const GENTLE_YIELD: f64 = 0.25;
+
+/// The expert's own rules, braking gently whenever they would not yet go:
+/// a driver who slows while unsure, and otherwise drives as the expert
+/// does (where the rules brake harder, it brakes as hard). Hedging costs
+/// reward, never the episode: `validate` holds it to the expert's bar.
+pub struct ExpertCautious;
+
+/// The paper's hedge for a delayed reveal: "approach slowly and be ready to
+/// stop until intent resolves". The expert's own rules, but until they go,
+/// at most a moderate speed ([`MODERATE_FRACTION`] of the limit) and never
+/// closer than a comfortable stop allows (the [`super::hedge`] approach).
+pub struct ExpertHedge;
+
+/// The hedge's moderate speed, as a fraction of the speed limit.
+pub const MODERATE_FRACTION: f64 = 0.6;
 
 /// The expert reading the other road users `lag` decisions late: its own
 /// rules, acting on the scene of `lag` decisions ago with its own state
@@ -98,6 +151,32 @@ impl Policy for Expert {
     }
 }
 
+impl Policy for ExpertCautious {
+    fn act(&mut self, obs: &Observation) -> Action {
+        let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
+        let m = expert_move(&obs.scene, v, v_max, obs.last_action);
+        if m.go { m.action } else { gentler(v, v_max, m.action, Action::new(Maneuver::Yield, GENTLE_YIELD)) }
+    }
+}
+
+impl Policy for ExpertHedge {
+    fn act(&mut self, obs: &Observation) -> Action {
+        let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
+        let m = expert_move(&obs.scene, v, v_max, obs.last_action);
+        if m.go {
+            return m.action;
+        }
+        let moderate = MODERATE_FRACTION * v_max;
+        // Down to the moderate speed gently, then hold it.
+        let cap = if v > moderate + 0.2 { Action::new(Maneuver::Yield, GENTLE_YIELD) } else { Action::hold() };
+        let ready = super::hedge(v, obs.ego_to_conflict_m() - HEDGE_WAIT_M);
+        gentler(v, v_max, m.action, gentler(v, v_max, cap, ready))
+    }
+}
+
+/// Where the hedge is ready to stop: this far before the conflict (m).
+const HEDGE_WAIT_M: f64 = 2.0;
+
 impl Policy for ExpertLate {
     fn reset(&mut self, _policy_seed: u64) {
         self.seen.clear();
@@ -129,6 +208,46 @@ mod tests {
     fn every_scenario_of_the_benchmark_has_its_rules() {
         for kind in ScenarioKind::ALL {
             assert_eq!(RULES.iter().filter(|r| r.scenario == kind).count(), 1, "{kind}");
+        }
+    }
+
+    /// The cautious readers change only the moves short of a go: where the
+    /// rules go, they go as the expert does; elsewhere they brake at least
+    /// gently (the cautious reader) or hold at most a moderate speed (the
+    /// hedge), never accelerating harder than the expert would.
+    #[test]
+    fn the_cautious_readers_change_only_the_moves_short_of_a_go() {
+        let set = ScenarioSet::default();
+        let accel = |a: Action, v: f64, v_max: f64| a.control().acceleration(v, v_max, crate::sim::DT);
+        for kind in ScenarioKind::ALL {
+            for tier in Tier::ALL {
+                for seed in 0..20 {
+                    for which in 0..2 {
+                        let mut episode = crate::episode::Episode::new(set.get(kind), tier, seed);
+                        let mut policy: Box<dyn Policy> =
+                            if which == 0 { Box::new(ExpertCautious) } else { Box::new(ExpertHedge) };
+                        while !episode.is_done() {
+                            let obs = *episode.observation();
+                            let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
+                            let m = expert_move(&obs.scene, v, v_max, obs.last_action);
+                            let action = policy.act(&obs);
+                            if m.go {
+                                assert_eq!(action, m.action, "{kind}/t{tier} seed {seed}");
+                            } else {
+                                assert!(accel(action, v, v_max) <= accel(m.action, v, v_max) + 1e-12);
+                                if which == 0 && v > 0.5 {
+                                    let gentle = Action::new(Maneuver::Yield, GENTLE_YIELD);
+                                    assert!(accel(action, v, v_max) <= accel(gentle, v, v_max) + 1e-12);
+                                }
+                                if which == 1 && v > MODERATE_FRACTION * v_max + 0.2 {
+                                    assert!(accel(action, v, v_max) < 0.0, "{kind}/t{tier} seed {seed} v {v}");
+                                }
+                            }
+                            episode.step(action);
+                        }
+                    }
+                }
+            }
         }
     }
 

@@ -2,6 +2,7 @@
 //! public scene (the `Scene` a policy is given) and the scenario's public
 //! geometry, never its world: they live on the public side of the firewall.
 
+use super::Move;
 use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
@@ -57,7 +58,7 @@ pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::PedestrianFeint,
     expert: |scene, v, v_max, _last| match scene.tracks() {
         [pedestrian] => expert(v, v_max, scene.ego_to_conflict_m(), pedestrian),
-        _ => super::hold_back(scene, v),
+        _ => Move::not_yet(super::hold_back(scene, v)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
         [pedestrian] => cue_follower(v, v_max, scene.ego_to_conflict_m(), pedestrian),
@@ -70,11 +71,11 @@ pub(super) const RULES: super::Rules = super::Rules {
 /// toward one who walks to or waits back from the edge while a stop stays
 /// possible, and go once it is due so soon that a crosser would already
 /// have moved (a standing pedestrian then waits for the ego).
-pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
+pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Move {
     let lat = p.now.position_m;
     let vel = p.now.velocity_mps;
     if d < 0.0 || (lat > PATH_FAR + 0.1 && vel >= -0.1) {
-        return go();
+        return Move::go(go());
     }
     let kerb = lat <= -0.1;
     let standing = vel.abs() < 0.15;
@@ -82,17 +83,17 @@ pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
     // Picking up pace from the kerb is stepping off (slowing there is stopping).
     let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
     if !kerb || at_edge || setting_off {
-        return give_way(v, d, lat, vel);
+        return Move::not_yet(give_way(v, d, lat, vel));
     }
     let eta = if v > 0.5 { d / v } else { f64::INFINITY };
     if standing && eta <= COMMIT_ETA_S {
-        return go();
+        return Move::go(go());
     }
     if !can_wait_a_turn(v, d) {
-        return hedge(v, d - WAIT_GAP_M);
+        return Move::not_yet(hedge(v, d - WAIT_GAP_M));
     }
     // Keep a going pace.
-    if v < PACE_MPS { Action::proceed_at(1.0) } else { Action::new(Maneuver::Yield, 0.0) }
+    Move::not_yet(if v < PACE_MPS { Action::proceed_at(1.0) } else { Action::new(Maneuver::Yield, 0.0) })
 }
 
 /// The cue follower: go as soon as the pedestrian is not moving into the road.

@@ -2,6 +2,7 @@
 //! public scene (the `Scene` a policy is given) and the scenario's public
 //! geometry, never its world: they live on the public side of the firewall.
 
+use super::Move;
 use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
@@ -79,7 +80,7 @@ pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::YieldStandoff,
     expert: |scene, v, v_max, last| match scene.tracks() {
         [other, follower] => expert(v, v_max, scene.ego_to_conflict_m(), other, follower, last),
-        _ => super::hold_back(scene, v),
+        _ => Move::not_yet(super::hold_back(scene, v)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
         [other, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), other, follower),
@@ -91,14 +92,14 @@ pub(super) const RULES: super::Rules = super::Rules {
 /// brake for the ego (and keep going while it stays slow), or once both
 /// cars are through or far enough; until then keep a stop before the zone
 /// possible and let them pass.
-pub(crate) fn expert(v: f64, v_max: f64, d: f64, other: &Track, follower: &Track, last: Option<Action>) -> Action {
+pub(crate) fn expert(v: f64, v_max: f64, d: f64, other: &Track, follower: &Track, last: Option<Action>) -> Move {
     let going = last.is_some_and(|a| a.maneuver == Maneuver::Proceed && a.acceleration >= 1.0);
     let clear = passes_before(v, v_max, d, other) && passes_before(v, v_max, d, follower);
     let behind = arrives_after(v, v_max, d, other) && arrives_after(v, v_max, d, follower);
     if d < 0.5 || clear || behind || stopping(other) || began_braking(other) || (going && yielding(other)) {
-        go()
+        Move::go(go())
     } else {
-        hedge(v, d - WAIT_GAP_M)
+        Move::not_yet(hedge(v, d - WAIT_GAP_M))
     }
 }
 
