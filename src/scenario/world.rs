@@ -74,7 +74,7 @@ pub trait World {
     /// stepping in, a crosser taking the ego's invitation, a stopped yielder
     /// pulling away, a lane car passing an ego it covered). The episode
     /// checks, at the step the count grows, that the ego could still stop
-    /// comfortably before the conflict ([`EgoApproach::can_stop_comfortably`]).
+    /// comfortably before the conflict (`EgoApproach::can_stop_comfortably`).
     fn turns_taken(&self) -> u32 {
         0
     }
