@@ -17,8 +17,10 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
     /// The scripted model: expert, always_proceed, always_stop, cautious,
-    /// random, cue_follower or expert_late (the expert reading the scene
-    /// one decision late, from the conversation's earlier scenes).
+    /// random, cue_follower, expert_late (the expert reading the scene one
+    /// decision late, from the conversation's earlier scenes),
+    /// expert_cautious or expert_hedge (the expert's rules driven with
+    /// caution while unsure).
     #[arg(long)]
     pub policy: String,
     /// Delay added to every answered request (ms).
