@@ -13,7 +13,8 @@
 #      episodes (EVAL_SEEDS seeds of every scenario and tier);
 #   4. the Python examples of docs/env-server.md (OpenEnv's client, the TRL rollout
 #      function's episode loop) each play an episode;
-#   5. the Kubernetes manifest is validated offline (kubernetes-validate).
+#   5. the Kubernetes manifest is validated offline (kubernetes-validate);
+#   and GenericEnvClient again, through a bearer token (`--token-var`).
 # Usage: scripts/openenv_check.sh   (CI runs it from .ci/run)
 # Environment: OPENENV_CHECK_VENVS (default target/openenv-check, reused when
 # present), OPENENV_CHECK_SEEDS (50), OPENENV_CHECK_EVAL_SEEDS (7), PYTHON.
@@ -48,6 +49,9 @@ for v in verifiers newest; do
 done
 
 work=$(mktemp -d)
+# A token for the guarded server's check, passed through the environment.
+NEGOTIATOR_CHECK_TOKEN=$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')
+export NEGOTIATOR_CHECK_TOKEN
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
@@ -87,6 +91,13 @@ for v in verifiers newest; do
   "$venvs/$v/bin/python" scripts/openenv_client_check.py "$env_url" always_proceed "$work/ref-fixed.jsonl"
   "$venvs/$v/bin/python" scripts/openenv_client_check.py "$env_url" "$schedule" "$work/ref-schedule.jsonl"
 done
+
+# The same with a bearer token (`--token-var`), sent through OpenEnv's own
+# `headers` (the newest openenv; 0.4 has no such argument).
+start guarded env-server --token-var NEGOTIATOR_CHECK_TOKEN
+guarded_url=http://127.0.0.1:$port
+NEGOTIATOR_TOKEN=$NEGOTIATOR_CHECK_TOKEN "$venvs/newest/bin/python" scripts/openenv_client_check.py \
+  "$guarded_url" always_proceed "$work/ref-fixed.jsonl"
 
 echo "== vf-eval (verifiers' OpenEnv taskset) against negotiator eval ($eval_seeds seeds per cell)"
 "$bin" eval --base-url "$model_url" --model expert --scenario all --tier all -n "$eval_seeds" \

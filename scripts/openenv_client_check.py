@@ -8,9 +8,14 @@ step, the episode reward on it) is checked on every step.
 usage: openenv_client_check.py URL POLICY REFERENCE.jsonl
 POLICY is `always_proceed` or a schedule `maneuver:strength:turns,...` (the last
 entry repeats), exactly as the reference was produced.
+
+With NEGOTIATOR_TOKEN set (a server started with `--token-var`), the client
+sends it as `Authorization: Bearer ...` through OpenEnv's own `headers`, after
+checking that a client without it is refused.
 """
 
 import json
+import os
 import sys
 
 import jsonschema
@@ -33,12 +38,25 @@ def main():
         actions = [{"maneuver": "proceed", "acceleration": 1.0}]
     else:
         actions = schedule_actions(policy)
-    schema = requests.get(f"{url}/schema", timeout=10).json()["observation"]
+    token = os.environ.get("NEGOTIATOR_TOKEN")
+    headers = {"Authorization": f"Bearer {token}"} if token else None
+    if token:
+        assert requests.get(f"{url}/schema", timeout=10).status_code == 401, "no token: refused"
+        served = False
+        try:
+            with GenericEnvClient(base_url=url).sync() as env:
+                env.reset(seed=1)
+                served = True
+        except Exception:
+            pass
+        assert not served, "a WebSocket client without the token was served"
+    schema = requests.get(f"{url}/schema", headers=headers, timeout=10).json()["observation"]
     validator = jsonschema.Draft202012Validator(schema)
     reference = [json.loads(line) for line in open(reference_path) if line.strip()]
     mismatches = []
     steps = 0
-    with GenericEnvClient(base_url=url).sync() as env:
+    client = GenericEnvClient(base_url=url, headers=headers) if headers else GenericEnvClient(base_url=url)
+    with client.sync() as env:
         for ref in reference:
             result = env.reset(scenario=ref["scenario"], tier=ref["tier"], seed=ref["seed"])
             validator.validate(result.observation)
@@ -60,7 +78,8 @@ def main():
                 mismatches.append((ref["scenario"], ref["tier"], ref["seed"], got, want))
             state = env.state()
             assert state["done"] and state["step_count"] == turns, state
-    print(f"GenericEnvClient ({policy}): {len(reference)} episodes, {steps} steps, {len(mismatches)} mismatches")
+    guarded = ", bearer token" if token else ""
+    print(f"GenericEnvClient ({policy}{guarded}): {len(reference)} episodes, {steps} steps, {len(mismatches)} mismatches")
     for m in mismatches[:10]:
         print("  mismatch", m)
     sys.exit(1 if mismatches else 0)

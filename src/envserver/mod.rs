@@ -28,12 +28,17 @@
 //! Bounds: at most `--max-sessions` sessions (WebSocket connections and
 //! open HTTP episodes together; past it a WebSocket gets the
 //! `CAPACITY_REACHED` error and is closed, an HTTP reset gets 503); no
-//! message or body above `--max-message-bytes`; a session idle for
-//! `--session-timeout` is closed. A session holds one episode (a few KB,
-//! bounded by the turn budget), so memory is bounded per session and in
-//! total.
+//! message or body above `--max-message-bytes` (OpenEnv's error, then close
+//! 1009; HTTP 413 with a JSON body); a session with no message for
+//! `--session-timeout` is closed (pings do not count). A session holds one
+//! episode (a few KB, bounded by the turn budget), an error reply lists at
+//! most a few fields, and a connection whose client stops reading is closed
+//! ([`net`]), so memory is bounded per connection and in total. Episode ids
+//! are 128 random bits: an HTTP episode's id is its capability, and a reset
+//! never takes over a live one. `--token-var` requires a bearer token.
 
 mod features;
+mod net;
 mod schema;
 mod session;
 mod wire;
@@ -46,11 +51,12 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use serde_json::{Map, Value, json};
-use session::{FieldError, ResetRequest, Session, SessionError};
+use session::{FieldError, FieldErrors, ResetRequest, Session, SessionError, clip};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering::Relaxed};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use tokio::sync::watch;
 
 /// The WebSocket read and write buffer of one session.
 const WS_BUFFER_BYTES: usize = 8 * 1024;
@@ -65,6 +71,16 @@ pub(crate) struct EnvServerConfig {
     pub max_sessions: usize,
     pub session_timeout: Duration,
     pub max_message_bytes: usize,
+    /// Connections served at once (HTTP, and WebSocket until upgraded).
+    pub max_connections: usize,
+    /// Headers, and a request's body, must arrive within this.
+    pub read_timeout: Duration,
+    /// A connection whose client reads nothing for this long is closed.
+    pub stall_timeout: Duration,
+    /// How long shutdown waits for open connections before it drops them.
+    pub shutdown_grace: Duration,
+    /// The bearer token every request but `/health` must carry, if any.
+    pub token: Option<String>,
 }
 
 /// Counts of what was served (for the shutdown line and tests).
@@ -89,12 +105,32 @@ pub(crate) struct EnvServerState {
     scenarios: crate::scenario::ScenarioSet,
     active: AtomicUsize,
     http: Mutex<HashMap<String, HttpEpisode>>,
-    /// Drawn seeds and generated episode ids: a SplitMix64 stream from a
-    /// per-process start, so replicas do not repeat each other's ids.
-    counter: AtomicU64,
-    start: u64,
+    /// WebSocket sessions running now (shutdown waits for them).
+    ws_open: AtomicUsize,
+    /// Set when shutdown begins: every WebSocket session closes (1001).
+    stop: watch::Sender<bool>,
     documents: Documents,
     pub stats: EnvStats,
+}
+
+/// One running WebSocket session, counted in `ws_open` while it lives.
+struct WsOpen(Arc<EnvServerState>);
+
+impl Drop for WsOpen {
+    fn drop(&mut self) {
+        self.0.ws_open.fetch_sub(1, Relaxed);
+    }
+}
+
+/// Random bytes from the operating system's source (ChaCha seeded from it
+/// if the call fails): episode ids and drawn seeds are never predictable
+/// from earlier ones.
+fn os_random<const N: usize>() -> [u8; N] {
+    let mut bytes = [0u8; N];
+    if getrandom::fill(&mut bytes).is_err() {
+        rand::fill(&mut bytes);
+    }
+    bytes
 }
 
 /// The documents served as they are (computed once).
@@ -122,16 +158,14 @@ struct AtCapacity {
 
 impl EnvServerState {
     pub(crate) fn new(config: EnvServerConfig) -> EnvServerState {
-        let nanos =
-            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
         let bytes = |v: Value| Bytes::from(serde_json::to_vec(&v).expect("a JSON value serialises"));
         EnvServerState {
             config,
             scenarios: crate::scenario::ScenarioSet::default(),
             active: AtomicUsize::new(0),
             http: Mutex::new(HashMap::new()),
-            counter: AtomicU64::new(0),
-            start: crate::hash::splitmix64(nanos ^ ((std::process::id() as u64) << 32)),
+            ws_open: AtomicUsize::new(0),
+            stop: watch::channel(false).0,
             documents: Documents {
                 schema: bytes(schema::schemas()),
                 metadata: bytes(schema::metadata()),
@@ -155,17 +189,14 @@ impl EnvServerState {
             })
     }
 
-    fn next_random(&self) -> u64 {
-        let k = self.counter.fetch_add(1, Relaxed);
-        crate::hash::splitmix64(self.start.wrapping_add(k.wrapping_mul(crate::hash::GOLDEN_GAMMA)))
-    }
-
     fn draw_seed(&self) -> u64 {
-        self.next_random() % session::DRAWN_SEED_LIMIT
+        u64::from_le_bytes(os_random()) % session::DRAWN_SEED_LIMIT
     }
 
+    /// 128 random bits: an HTTP episode's id is its capability (whoever
+    /// holds it may play it), so it must not be guessable.
     fn new_episode_id(&self) -> String {
-        format!("ep-{:016x}", self.next_random())
+        format!("ep-{:032x}", u128::from_le_bytes(os_random()))
     }
 
     fn http_episodes(&self) -> std::sync::MutexGuard<'_, HashMap<String, HttpEpisode>> {
@@ -189,7 +220,6 @@ impl EnvServerState {
 }
 
 pub(crate) fn router(state: Arc<EnvServerState>) -> Router {
-    let limit = state.config.max_message_bytes;
     Router::new()
         .route("/reset", post(http_reset))
         .route("/step", post(http_step))
@@ -210,8 +240,62 @@ pub(crate) fn router(state: Arc<EnvServerState>) -> Router {
         .route("/mcp", post(http_mcp))
         .route("/ws", get(ws_upgrade))
         .fallback(|| async { (StatusCode::NOT_FOUND, axum::Json(json!({"detail": "Not Found"}))) })
-        .layer(DefaultBodyLimit::max(limit))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), require_token))
+        // Handlers read their bodies themselves (`read_body`), under the
+        // read deadline and with OpenEnv's JSON error past the limit.
+        .layer(DefaultBodyLimit::disable())
         .with_state(state)
+}
+
+/// With `--token-var`, every request but `/health` (a probe's) carries
+/// `Authorization: Bearer TOKEN`; others get 401 with OpenEnv's JSON error.
+async fn require_token(
+    State(state): State<Arc<EnvServerState>>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let Some(token) = state.config.token.as_deref() else { return next.run(request).await };
+    if request.uri().path() == "/health" {
+        return next.run(request).await;
+    }
+    let presented = request
+        .headers()
+        .get(axum::http::header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+        .unwrap_or("");
+    if same_secret(presented.as_bytes(), token.as_bytes()) {
+        return next.run(request).await;
+    }
+    let mut response = detail(StatusCode::UNAUTHORIZED, json!("missing or wrong bearer token"));
+    response.headers_mut().insert(axum::http::header::WWW_AUTHENTICATE, axum::http::HeaderValue::from_static("Bearer"));
+    response
+}
+
+/// Compare two secrets in time that depends on their lengths only.
+fn same_secret(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+/// A request's body, read within the read deadline and the size limit; past
+/// either, OpenEnv's JSON error (413, 408) instead of a plain-text one.
+async fn read_body(state: &EnvServerState, body: axum::body::Body) -> Result<Bytes, Response> {
+    let limit = state.config.max_message_bytes;
+    match tokio::time::timeout(state.config.read_timeout, axum::body::to_bytes(body, limit)).await {
+        Ok(Ok(bytes)) => Ok(bytes),
+        Ok(Err(e)) => {
+            let too_large = e.into_inner().is::<http_body_util::LengthLimitError>();
+            Err(if too_large {
+                detail(StatusCode::PAYLOAD_TOO_LARGE, json!(format!("request body larger than {limit} bytes")))
+            } else {
+                detail(StatusCode::BAD_REQUEST, json!("the request body could not be read"))
+            })
+        }
+        Err(_) => Err(detail(
+            StatusCode::REQUEST_TIMEOUT,
+            json!(format!("request body not received within {} s", state.config.read_timeout.as_secs_f64())),
+        )),
+    }
 }
 
 fn json_bytes(body: Bytes) -> Response {
@@ -228,7 +312,9 @@ fn unprocessable(errors: Vec<FieldError>) -> Response {
     let list: Vec<Value> = errors
         .into_iter()
         .map(|mut e| {
-            e.loc[0] = "body".to_string();
+            if let Some(first) = e.loc.first_mut() {
+                *first = "body".to_string();
+            }
             serde_json::to_value(e).expect("a field error serialises")
         })
         .collect();
@@ -264,7 +350,11 @@ fn session_error(state: &EnvServerState, e: SessionError) -> Response {
     }
 }
 
-async fn http_reset(State(state): State<Arc<EnvServerState>>, body: Bytes) -> Response {
+async fn http_reset(State(state): State<Arc<EnvServerState>>, body: axum::body::Body) -> Response {
+    let body = match read_body(&state, body).await {
+        Ok(b) => b,
+        Err(r) => return r,
+    };
     let fields = match body_object(&body) {
         Ok(f) => f,
         Err(r) => return *r,
@@ -277,17 +367,23 @@ async fn http_reset(State(state): State<Arc<EnvServerState>>, body: Bytes) -> Re
     let request = ResetRequest { episode_id: Some(id.clone()), ..request };
     state.reap();
     let mut episodes = state.http_episodes();
-    let slot = match episodes.remove(&id) {
-        Some(old) => old._slot,
-        None => match state.acquire() {
-            Ok(slot) => slot,
-            Err(AtCapacity { active, max }) => {
-                return detail(
-                    StatusCode::SERVICE_UNAVAILABLE,
-                    json!(format!("server at capacity: {active} of {max} sessions in use; retry later")),
-                );
-            }
-        },
+    // An id is its episode's capability: naming a live one is refused, never
+    // a way to take the episode over.
+    if episodes.contains_key(&id) {
+        state.stats.errors.fetch_add(1, Relaxed);
+        return detail(
+            StatusCode::CONFLICT,
+            json!(format!("episode_id '{}' is in use: reset without an episode_id to get a fresh one", clip(&id))),
+        );
+    }
+    let slot = match state.acquire() {
+        Ok(slot) => slot,
+        Err(AtCapacity { active, max }) => {
+            return detail(
+                StatusCode::SERVICE_UNAVAILABLE,
+                json!(format!("server at capacity: {active} of {max} sessions in use; retry later")),
+            );
+        }
     };
     let mut session = Session::default();
     let reply = session.reset(&state.scenarios, request, || state.draw_seed(), || unreachable!("the id is set"));
@@ -295,7 +391,11 @@ async fn http_reset(State(state): State<Arc<EnvServerState>>, body: Bytes) -> Re
     axum::Json(reply).into_response()
 }
 
-async fn http_step(State(state): State<Arc<EnvServerState>>, body: Bytes) -> Response {
+async fn http_step(State(state): State<Arc<EnvServerState>>, body: axum::body::Body) -> Response {
+    let body = match read_body(&state, body).await {
+        Ok(b) => b,
+        Err(r) => return r,
+    };
     let mut fields = match body_object(&body) {
         Ok(f) => f,
         Err(r) => return *r,
@@ -307,30 +407,33 @@ async fn http_step(State(state): State<Arc<EnvServerState>>, body: Bytes) -> Res
     };
     let action = fields.remove("action");
     let id = fields.remove("episode_id");
-    let mut errors = Vec::new();
+    let mut errors = FieldErrors::default();
     if action.is_none() {
-        errors.push(missing("action", "Field required"));
+        errors.push(|| missing("action", "Field required"));
     }
     let id = match id {
         Some(Value::String(id)) => Some(id),
         _ => {
-            errors.push(missing(
-                "episode_id",
-                "Field required: the episode_id /reset returned (or use the WebSocket session on /ws)",
-            ));
+            errors.push(|| {
+                missing(
+                    "episode_id",
+                    "Field required: the episode_id /reset returned (or use the WebSocket session on /ws)",
+                )
+            });
             None
         }
     };
     for extra in fields.keys().filter(|k| !matches!(k.as_str(), "timeout_s" | "request_id")) {
-        errors.push(FieldError {
+        errors.push(|| FieldError {
             kind: "extra_forbidden",
-            loc: vec!["body".to_string(), extra.clone()],
+            loc: vec!["body".to_string(), clip(extra).into_owned()],
             msg: "unknown field".to_string(),
         });
     }
     let (Some(action), Some(id), true) = (action, id, errors.is_empty()) else {
         state.stats.errors.fetch_add(1, Relaxed);
-        return detail(StatusCode::UNPROCESSABLE_ENTITY, serde_json::to_value(errors).expect("serialises"));
+        let list = errors.into_list();
+        return detail(StatusCode::UNPROCESSABLE_ENTITY, serde_json::to_value(list).expect("serialises"));
     };
     let mut episodes = state.http_episodes();
     let Some(entry) = episodes.get_mut(&id) else {
@@ -338,7 +441,8 @@ async fn http_step(State(state): State<Arc<EnvServerState>>, body: Bytes) -> Res
         return detail(
             StatusCode::NOT_FOUND,
             json!(format!(
-                "unknown episode_id '{id}': reset first (an HTTP episode is forgotten when it ends or after {} s idle)",
+                "unknown episode_id '{}': reset first (an HTTP episode is forgotten when it ends or after {} s idle)",
+                clip(&id),
                 state.config.session_timeout.as_secs()
             )),
         );
@@ -368,7 +472,7 @@ async fn http_state(State(state): State<Arc<EnvServerState>>, Query(q): Query<St
     };
     match state.http_episodes().get(&id) {
         Some(e) => axum::Json(e.session.state()).into_response(),
-        None => detail(StatusCode::NOT_FOUND, json!(format!("unknown episode_id '{id}'"))),
+        None => detail(StatusCode::NOT_FOUND, json!(format!("unknown episode_id '{}'", clip(&id)))),
     }
 }
 
@@ -385,7 +489,11 @@ fn mcp_response(request: &Value) -> Value {
     }
 }
 
-async fn http_mcp(body: Bytes) -> Response {
+async fn http_mcp(State(state): State<Arc<EnvServerState>>, body: axum::body::Body) -> Response {
+    let body = match read_body(&state, body).await {
+        Ok(b) => b,
+        Err(r) => return r,
+    };
     let reply = match serde_json::from_slice::<Value>(&body) {
         Ok(request) => mcp_response(&request),
         Err(_) => json!({"jsonrpc": "2.0", "id": null, "error": {"code": -32700, "message": "Parse error"}}),
@@ -396,12 +504,33 @@ async fn http_mcp(body: Bytes) -> Response {
 async fn ws_upgrade(State(state): State<Arc<EnvServerState>>, ws: WebSocketUpgrade) -> Response {
     let limit = state.config.max_message_bytes;
     // Small read and write buffers: a message is a few KB, and a large
-    // buffer is zeroed on every read.
+    // buffer is zeroed on every read. Outgoing bytes are capped: the server
+    // writes one bounded reply at a time, and a client that stops reading is
+    // closed by the connection's stall guard.
     ws.max_message_size(limit)
         .max_frame_size(limit)
         .read_buffer_size(WS_BUFFER_BYTES)
         .write_buffer_size(WS_BUFFER_BYTES)
+        .max_write_buffer_size(MAX_WS_OUTGOING_BYTES)
         .on_upgrade(move |socket| ws_session(socket, state))
+}
+
+/// Most bytes a session may have written and not yet sent: the largest
+/// reply with its framing, twice.
+const MAX_WS_OUTGOING_BYTES: usize = WS_BUFFER_BYTES + 2 * (2 * session::MAX_REPLY_BYTES + 4096);
+
+/// What a frame the session could not read gets: OpenEnv's structured
+/// error, then the close code RFC 6455 gives the fault (1009: too big,
+/// 1007: not UTF-8); None for a connection that is simply gone.
+fn unreadable(e: &axum::Error, limit: usize) -> Option<(Value, u16)> {
+    let inner = std::error::Error::source(e)?.downcast_ref::<tungstenite::Error>()?;
+    match inner {
+        tungstenite::Error::Capacity(_) => {
+            Some((ws_error("VALIDATION_ERROR", format!("message larger than {limit} bytes: closed")), 1009))
+        }
+        tungstenite::Error::Utf8(_) => Some((ws_error("INVALID_JSON", "text frame is not valid UTF-8: closed"), 1007)),
+        _ => None,
+    }
 }
 
 /// OpenEnv's error message.
@@ -450,19 +579,18 @@ fn ws_message(state: &EnvServerState, session: &mut Session, text: &str) -> WsRe
     let allowed: &[&str] = match kind {
         "reset" | "step" | "mcp" => &["type", "data"],
         "state" | "close" => &["type"],
-        _ => return WsReply::Send(ws_error("UNKNOWN_TYPE", format!("Unknown message type: {kind}"))),
+        _ => return WsReply::Send(ws_error("UNKNOWN_TYPE", format!("Unknown message type: {}", clip(kind)))),
     };
-    let extra: Vec<FieldError> = fields
-        .keys()
-        .filter(|k| !allowed.contains(&k.as_str()))
-        .map(|k| FieldError {
+    let mut extra = FieldErrors::default();
+    for k in fields.keys().filter(|k| !allowed.contains(&k.as_str())) {
+        extra.push(|| FieldError {
             kind: "extra_forbidden",
-            loc: vec![k.clone()],
+            loc: vec![clip(k).into_owned()],
             msg: "Extra inputs are not permitted".to_string(),
-        })
-        .collect();
+        });
+    }
     if !extra.is_empty() {
-        return WsReply::Send(invalid(extra));
+        return WsReply::Send(invalid(extra.into_list()));
     }
     let data = fields.get("data");
     let reply = match kind {
@@ -522,6 +650,11 @@ async fn send(socket: &mut WebSocket, value: &Value) -> bool {
     socket.send(Message::Text(value.to_string().into())).await.is_ok()
 }
 
+/// Resolves once the server's shutdown has begun.
+async fn stopping(stop: &mut watch::Receiver<bool>) {
+    let _ = stop.wait_for(|stopping| *stopping).await;
+}
+
 /// One WebSocket connection: one session, until the client closes it,
 /// sends `close`, or stays idle past the session timeout.
 async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
@@ -539,16 +672,28 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
             return;
         }
     };
+    state.ws_open.fetch_add(1, Relaxed);
+    let _open = WsOpen(state.clone());
+    let mut stop = state.stop.subscribe();
     let mut session = Session::default();
     let timeout = state.config.session_timeout;
     // One idle timer for the session, pushed back on each message: moving a
     // deadline later is an atomic store, where a `timeout` per message would
     // insert and remove a timer entry under the timer's lock every step.
+    // Only a message pushes it back: a ping (a client library's keepalive)
+    // does not keep an abandoned session open. A client that stops reading
+    // is closed by the connection's stall guard (a send then fails).
     let idle = tokio::time::sleep(timeout);
     tokio::pin!(idle);
     loop {
         let message = tokio::select! {
             biased;
+            () = stopping(&mut stop) => {
+                let _ = socket
+                    .send(Message::Close(Some(CloseFrame { code: 1001, reason: "server shutting down".into() })))
+                    .await;
+                return;
+            }
             message = socket.recv() => message,
             () = &mut idle => {
                 state.stats.expired.fetch_add(1, Relaxed);
@@ -561,16 +706,25 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
             }
         };
         let message = match message {
-            None | Some(Err(_)) => return,
+            None => return,
+            Some(Err(e)) => {
+                if let Some((error, code)) = unreadable(&e, state.config.max_message_bytes) {
+                    state.stats.errors.fetch_add(1, Relaxed);
+                    let _ = send(&mut socket, &error).await;
+                    let reason = if code == 1009 { "message too big" } else { "invalid UTF-8" };
+                    let _ = socket.send(Message::Close(Some(CloseFrame { code, reason: reason.into() }))).await;
+                }
+                return;
+            }
             Some(Ok(m)) => m,
         };
-        idle.as_mut().reset(tokio::time::Instant::now() + timeout);
         let reply = match message {
             Message::Text(text) => ws_message(&state, &mut session, text.as_str()),
             Message::Binary(_) => WsReply::Send(ws_error("INVALID_JSON", "binary frames are not read: send JSON text")),
             Message::Close(_) => return,
             Message::Ping(_) | Message::Pong(_) => continue,
         };
+        idle.as_mut().reset(tokio::time::Instant::now() + timeout);
         let text = match reply {
             WsReply::Send(value) => value.to_string(),
             WsReply::Text(text) => text,
@@ -583,8 +737,9 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
     let _ = socket.send(Message::Close(Some(CloseFrame { code: 1000, reason: "".into() }))).await;
 }
 
-/// Serve on `listener` until Ctrl-C (or SIGTERM); idle HTTP episodes are
-/// reaped in the background.
+/// Serve on `listener` until Ctrl-C (or SIGTERM), then close within the
+/// shutdown grace ([`net::serve`]); idle HTTP episodes are reaped in the
+/// background.
 pub(crate) async fn run(listener: tokio::net::TcpListener, state: Arc<EnvServerState>) -> std::io::Result<()> {
     let reaper = {
         let state = state.clone();
@@ -597,7 +752,19 @@ pub(crate) async fn run(listener: tokio::net::TcpListener, state: Arc<EnvServerS
             }
         })
     };
-    let served = axum::serve(listener, router(state)).with_graceful_shutdown(crate::serve::shutdown()).await;
+    let c = &state.config;
+    let limits = net::NetLimits {
+        max_connections: c.max_connections,
+        read_timeout: c.read_timeout,
+        stall_timeout: c.stall_timeout,
+        shutdown_grace: c.shutdown_grace,
+    };
+    let open = state.clone();
+    let served =
+        net::serve(listener, router(state.clone()), limits, crate::serve::shutdown(), state.stop.clone(), move || {
+            open.ws_open.load(Relaxed)
+        })
+        .await;
     reaper.abort();
     served
 }
@@ -611,7 +778,65 @@ mod tests {
             max_sessions: 4,
             session_timeout: Duration::from_secs(60),
             max_message_bytes: 1 << 20,
+            max_connections: 16,
+            read_timeout: Duration::from_secs(10),
+            stall_timeout: Duration::from_secs(10),
+            shutdown_grace: Duration::from_secs(1),
+            token: None,
         })
+    }
+
+    /// An error reply never grows with the request: a message with 100,000
+    /// unknown fields (and a reset with as many) lists a few, counts the
+    /// rest, and echoes no field name longer than the clip.
+    #[test]
+    fn error_replies_are_bounded_whatever_the_request() {
+        let state = state();
+        let mut session = Session::default();
+        let long = "k".repeat(10_000);
+        let mut fields: Map<String, Value> = (0..100_000).map(|i| (format!("{i}"), json!(0))).collect();
+        fields.insert(long.clone(), json!(0));
+        let message = json!({"type": "state", "junk": 1, &long: 2}).to_string();
+        let bounded = |reply: &Value| {
+            let text = reply.to_string();
+            assert!(text.len() < 2048, "{} bytes", text.len());
+            text
+        };
+        let reply = send_text(&state, &mut session, &message);
+        assert_eq!(reply["data"]["code"], "VALIDATION_ERROR");
+        bounded(&reply);
+        let mut wrapped = Map::new();
+        wrapped.insert("type".into(), json!("reset"));
+        wrapped.insert("data".into(), Value::Object(fields));
+        let reply = send_text(&state, &mut session, &Value::Object(wrapped).to_string());
+        let text = bounded(&reply);
+        let errors = reply["data"]["errors"].as_array().unwrap();
+        assert_eq!(errors.len(), session::MAX_LISTED_ERRORS + 1, "{text}");
+        assert_eq!(errors.last().unwrap()["msg"], "99996 more errors not listed", "{text}");
+    }
+
+    #[test]
+    fn episode_ids_carry_128_random_bits() {
+        let state = state();
+        let ids: std::collections::HashSet<String> = (0..1000).map(|_| state.new_episode_id()).collect();
+        assert_eq!(ids.len(), 1000);
+        for id in &ids {
+            let hex = id.strip_prefix("ep-").unwrap();
+            assert_eq!(hex.len(), 32, "{id}");
+            assert!(u128::from_str_radix(hex, 16).is_ok(), "{id}");
+        }
+        // Not a counter: consecutive ids share no long prefix.
+        let a = state.new_episode_id();
+        let b = state.new_episode_id();
+        assert_ne!(a[..11], b[..11]);
+    }
+
+    #[test]
+    fn secrets_compare_by_content_and_length() {
+        assert!(same_secret(b"s3cret", b"s3cret"));
+        assert!(!same_secret(b"s3cret", b"s3creT"));
+        assert!(!same_secret(b"s3cret", b"s3cret!"));
+        assert!(!same_secret(b"", b"x"));
     }
 
     fn send_text(state: &EnvServerState, session: &mut Session, text: &str) -> Value {

@@ -46,7 +46,64 @@ pub(crate) struct FieldError {
 
 impl FieldError {
     fn new(kind: &'static str, field: &str, msg: impl Into<String>) -> FieldError {
-        FieldError { kind, loc: vec!["data".to_string(), field.to_string()], msg: msg.into() }
+        FieldError {
+            kind,
+            loc: vec!["data".to_string(), clip(field).into_owned()],
+            msg: clip(&msg.into()).into_owned(),
+        }
+    }
+}
+
+/// At most this many field errors are listed in one reply; the rest are
+/// counted. An error reply never grows with the request that caused it.
+pub(crate) const MAX_LISTED_ERRORS: usize = 5;
+/// A field name or message echoed in an error is cut to this many bytes.
+pub(crate) const MAX_ECHO_BYTES: usize = 160;
+
+/// `text` cut to [`MAX_ECHO_BYTES`] (at a character boundary, marked by
+/// "..."): what an error may echo of a client's input.
+pub(crate) fn clip(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.len() <= MAX_ECHO_BYTES {
+        return text.into();
+    }
+    let mut end = MAX_ECHO_BYTES;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}...", &text[..end]).into()
+}
+
+/// The field errors of one request: the first [`MAX_LISTED_ERRORS`] listed,
+/// the others only counted (so a body of 100,000 unknown keys costs a
+/// counter, not a list), then one entry that says how many were left out.
+#[derive(Debug, Default)]
+pub(crate) struct FieldErrors {
+    listed: Vec<FieldError>,
+    omitted: usize,
+}
+
+impl FieldErrors {
+    pub(crate) fn push(&mut self, error: impl FnOnce() -> FieldError) {
+        if self.listed.len() < MAX_LISTED_ERRORS {
+            self.listed.push(error());
+        } else {
+            self.omitted += 1;
+        }
+    }
+
+    pub(crate) fn is_empty(&self) -> bool {
+        self.listed.is_empty()
+    }
+
+    pub(crate) fn into_list(mut self) -> Vec<FieldError> {
+        if self.omitted > 0 {
+            self.listed.push(FieldError {
+                kind: "too_many_errors",
+                loc: vec!["data".to_string()],
+                msg: format!("{} more errors not listed", self.omitted),
+            });
+        }
+        self.listed
     }
 }
 
@@ -122,7 +179,7 @@ impl ResetRequest {
     /// Read a reset's `data`. Unknown fields are refused (a misspelt
     /// `senario` would otherwise silently play the default).
     pub fn from_fields(data: &Map<String, Value>) -> Result<ResetRequest, SessionError> {
-        let mut errors = Vec::new();
+        let mut errors = FieldErrors::default();
         let mut request = ResetRequest {
             scenario: DEFAULT_SCENARIO,
             tier: DEFAULT_TIER,
@@ -137,50 +194,56 @@ impl ResetRequest {
             match key.as_str() {
                 "scenario" => match value.as_str().map(str::parse::<ScenarioKind>) {
                     Some(Ok(k)) => request.scenario = k,
-                    _ => errors.push(FieldError::new(
-                        "enum",
-                        key,
-                        format!("expected one of {}, got {value}", scenario_names().join(", ")),
-                    )),
+                    _ => errors.push(|| {
+                        FieldError::new(
+                            "enum",
+                            key,
+                            format!("expected one of {}, got {value}", scenario_names().join(", ")),
+                        )
+                    }),
                 },
                 "tier" => match tier_of(value) {
                     Some(t) => request.tier = t,
-                    None => errors.push(FieldError::new("enum", key, format!("expected 1, 2 or 3, got {value}"))),
+                    None => errors.push(|| FieldError::new("enum", key, format!("expected 1, 2 or 3, got {value}"))),
                 },
                 "seed" => match value.as_u64() {
                     Some(s) => request.seed = Some(s),
-                    None => errors.push(FieldError::new(
-                        "int_type",
-                        key,
-                        format!("expected a whole number from 0 to {}, got {value}", u64::MAX),
-                    )),
+                    None => errors.push(|| {
+                        FieldError::new(
+                            "int_type",
+                            key,
+                            format!("expected a whole number from 0 to {}, got {value}", u64::MAX),
+                        )
+                    }),
                 },
                 "view" => match value.as_str().and_then(View::parse) {
                     Some(v) => request.view = v,
-                    None => errors.push(FieldError::new(
-                        "enum",
-                        key,
-                        format!("expected one of {}, got {value}", View::NAMES.join(", ")),
-                    )),
+                    None => errors.push(|| {
+                        FieldError::new("enum", key, format!("expected one of {}, got {value}", View::NAMES.join(", ")))
+                    }),
                 },
                 "episode_id" => match value.as_str() {
                     Some(id) if !id.is_empty() && id.len() <= MAX_EPISODE_ID_LEN => {
                         request.episode_id = Some(id.to_string())
                     }
-                    _ => errors.push(FieldError::new(
-                        "string_type",
-                        key,
-                        format!("expected a string of 1 to {MAX_EPISODE_ID_LEN} bytes"),
-                    )),
+                    _ => errors.push(|| {
+                        FieldError::new(
+                            "string_type",
+                            key,
+                            format!("expected a string of 1 to {MAX_EPISODE_ID_LEN} bytes"),
+                        )
+                    }),
                 },
-                _ => errors.push(FieldError::new(
-                    "extra_forbidden",
-                    key,
-                    "unknown reset field (expected scenario, tier, seed, view, episode_id)",
-                )),
+                _ => errors.push(|| {
+                    FieldError::new(
+                        "extra_forbidden",
+                        key,
+                        "unknown reset field (expected scenario, tier, seed, view, episode_id)",
+                    )
+                }),
             }
         }
-        if errors.is_empty() { Ok(request) } else { Err(SessionError::Invalid(errors)) }
+        if errors.is_empty() { Ok(request) } else { Err(SessionError::Invalid(errors.into_list())) }
     }
 }
 

@@ -237,3 +237,234 @@ fn bad_flags_are_one_line_usage_errors() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
 }
+
+/// Defects a careless or hostile client could use against everyone else
+/// on a shared env-server, one test each.
+mod shared_cluster {
+    use super::*;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    use tokio::net::TcpStream;
+
+    fn post_raw(port: u16, path: &str, body: &[u8]) -> (u16, Value, usize) {
+        runtime().block_on(async {
+            let r = reqwest::Client::new()
+                .post(format!("http://127.0.0.1:{port}{path}"))
+                .header("content-type", "application/json")
+                .body(body.to_vec())
+                .send()
+                .await
+                .unwrap();
+            let status = r.status().as_u16();
+            let bytes = r.bytes().await.unwrap();
+            (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null), bytes.len())
+        })
+    }
+
+    /// A 1 MB body of 100,000 unknown keys gets a small 422 (a few errors
+    /// and a count), not a reply that lists them all.
+    #[test]
+    fn an_error_reply_does_not_grow_with_the_request() {
+        let server = EnvServer::start(&[]);
+        let keys: Vec<String> = (0..100_000).map(|i| format!("\"{i}\":0")).collect();
+        let body = format!("{{{}}}", keys.join(","));
+        assert!(body.len() > 900_000);
+        let (status, reply, size) = post_raw(server.port(), "/reset", body.as_bytes());
+        assert_eq!(status, 422, "{reply}");
+        assert!(size < 2048, "{size} bytes");
+        let listed = reply["detail"].as_array().unwrap();
+        assert_eq!(listed.last().unwrap()["msg"], "99995 more errors not listed", "{reply}");
+    }
+
+    /// A body over the limit gets OpenEnv's JSON error, not plain text.
+    #[test]
+    fn an_oversized_body_gets_a_json_413() {
+        let server = EnvServer::start(&["--max-message-bytes", "140000"]);
+        let (status, reply, _) = post_raw(server.port(), "/reset", &vec![b' '; 150_000]);
+        assert_eq!(status, 413);
+        assert!(reply["detail"].as_str().unwrap().contains("140000"), "{reply}");
+    }
+
+    /// Episode ids carry 128 random bits, and a reset that names a live
+    /// one is refused: nobody takes over another client's episode.
+    #[test]
+    fn an_episode_id_is_unguessable_and_cannot_be_taken_over() {
+        let server = EnvServer::start(&[]);
+        let (status, first, _) = post_raw(server.port(), "/reset", b"{\"seed\": 1}");
+        assert_eq!(status, 200);
+        let id = first["observation"]["episode_id"].as_str().unwrap().to_string();
+        let hex = id.strip_prefix("ep-").unwrap();
+        assert_eq!(hex.len(), 32, "{id}");
+        let (_, second, _) = post_raw(server.port(), "/reset", b"{}");
+        assert_ne!(second["observation"]["episode_id"], first["observation"]["episode_id"]);
+        let (status, refusal, _) = post_raw(server.port(), "/reset", json!({"episode_id": id}).to_string().as_bytes());
+        assert_eq!(status, 409, "{refusal}");
+        // The owner's episode is untouched: its first step still answers.
+        let step = json!({"episode_id": id, "action": {"maneuver": "stop", "acceleration": 0.5}});
+        let (status, reply, _) = post_raw(server.port(), "/step", step.to_string().as_bytes());
+        assert_eq!((status, reply["observation"]["turn"].clone()), (200, json!(2)), "{reply}");
+    }
+
+    /// A client that sends a reset and thousands of messages in one go and
+    /// never reads is closed once it has read nothing for the stall
+    /// timeout: its session goes back to the pool for the next client.
+    #[test]
+    fn a_client_that_never_reads_loses_its_session() {
+        let server = EnvServer::start(&["--max-sessions", "1", "--stall-timeout", "0.5", "--session-timeout", "600"]);
+        runtime().block_on(async {
+            let mut hog = connect(server.port()).await;
+            hog.send(Message::text(json!({"type": "reset", "data": {"seed": 1}}).to_string())).await.unwrap();
+            let state = Message::text(json!({"type": "state"}).to_string());
+            // Send without reading until the server stops taking them.
+            let flood = async {
+                for _ in 0..50_000 {
+                    if hog.send(state.clone()).await.is_err() {
+                        break;
+                    }
+                }
+            };
+            let _ = tokio::time::timeout(Duration::from_secs(20), flood).await;
+            let mut served = None;
+            for _ in 0..100 {
+                let mut next = connect(server.port()).await;
+                let reply = exchange(&mut next, &json!({"type": "reset", "data": {"seed": 2}})).await;
+                if reply.as_ref().is_some_and(|r| r["type"] == "observation") {
+                    served = reply;
+                    break;
+                }
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+            assert!(served.is_some(), "the stalled session was never released");
+        });
+    }
+
+    /// Pings (a client library's keepalive) do not keep an abandoned
+    /// session open past its idle timeout.
+    #[test]
+    fn pings_do_not_keep_a_session_alive() {
+        let server = EnvServer::start(&["--session-timeout", "1"]);
+        runtime().block_on(async {
+            let mut ws = connect(server.port()).await;
+            let reset = json!({"type": "reset", "data": {"seed": 1}});
+            assert_eq!(exchange(&mut ws, &reset).await.unwrap()["type"], "observation");
+            let pinging = async {
+                loop {
+                    ws.send(Message::Ping(vec![1].into())).await.unwrap();
+                    match tokio::time::timeout(Duration::from_millis(200), ws.next()).await {
+                        Ok(Some(Ok(Message::Text(t)))) => return serde_json::from_str::<Value>(t.as_str()).unwrap(),
+                        Ok(Some(Ok(_))) | Err(_) => continue,
+                        Ok(None) | Ok(Some(Err(_))) => return Value::Null,
+                    }
+                }
+            };
+            let notice = tokio::time::timeout(Duration::from_secs(10), pinging).await.expect("closed while pinging");
+            assert_eq!(notice["data"]["code"], "SESSION_ERROR", "{notice}");
+        });
+    }
+
+    /// A client that sends its headers a line at a time, slowly, is cut off
+    /// at the read timeout; and such a client does not hold up shutdown.
+    #[test]
+    fn a_slow_header_client_is_cut_off_and_does_not_hold_up_shutdown() {
+        let mut server =
+            EnvServer::start(&["--read-timeout", "1", "--shutdown-grace", "1", "--session-timeout", "600"]);
+        let port = server.port();
+        runtime().block_on(async {
+            let mut slow = TcpStream::connect(("127.0.0.1", port)).await.unwrap();
+            slow.write_all(b"POST /reset HTTP/1.1\r\nHost: x\r\n").await.unwrap();
+            let dribble = async {
+                for i in 0..100 {
+                    tokio::time::sleep(Duration::from_millis(300)).await;
+                    if slow.write_all(format!("X-Slow-{i}: 1\r\n").as_bytes()).await.is_err() {
+                        return true;
+                    }
+                    let mut buf = [0u8; 512];
+                    if let Ok(Ok(n)) = tokio::time::timeout(Duration::from_millis(10), slow.read(&mut buf)).await {
+                        // 0: closed; otherwise hyper's 408 before it closes.
+                        return n == 0 || String::from_utf8_lossy(&buf[..n]).contains("408");
+                    }
+                }
+                false
+            };
+            assert!(tokio::time::timeout(Duration::from_secs(20), dribble).await.unwrap(), "never cut off");
+        });
+        // Shutdown with another slow client connected.
+        let holdout = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+        std::io::Write::write_all(&mut &holdout, b"POST /reset HTTP/1.1\r\n").unwrap();
+        let pid = server.0.pid().to_string();
+        assert!(std::process::Command::new("kill").args(["-TERM", &pid]).status().unwrap().success());
+        let status = server.0.exited_within(Duration::from_secs(15)).expect("SIGTERM did not stop the server");
+        assert!(status.success(), "{status:?}");
+        drop(holdout);
+    }
+
+    /// A text frame over the limit, or one that is not UTF-8, gets
+    /// OpenEnv's structured error and then the close code for it (1009,
+    /// 1007), not a dropped connection.
+    #[test]
+    fn an_unreadable_frame_gets_an_error_and_its_close_code() {
+        use tokio_tungstenite::tungstenite::protocol::frame::coding::{Data, OpCode};
+        use tokio_tungstenite::tungstenite::protocol::frame::{Frame, FrameHeader};
+        let server = EnvServer::start(&["--max-message-bytes", "140000"]);
+        runtime().block_on(async {
+            let close_code = |ws: Socket| async move {
+                let mut ws = ws;
+                let mut error = Value::Null;
+                loop {
+                    match tokio::time::timeout(Duration::from_secs(5), ws.next()).await.unwrap() {
+                        Some(Ok(Message::Text(t))) => error = serde_json::from_str(t.as_str()).unwrap(),
+                        Some(Ok(Message::Close(frame))) => return (error, frame.map(|f| u16::from(f.code))),
+                        Some(Ok(_)) => continue,
+                        None | Some(Err(_)) => return (error, None),
+                    }
+                }
+            };
+            let mut big = connect(server.port()).await;
+            big.send(Message::text("x".repeat(150_000))).await.unwrap();
+            let (error, code) = close_code(big).await;
+            assert_eq!(error["type"], "error", "{error}");
+            assert_eq!(code, Some(1009), "{error}");
+
+            let mut bad = connect(server.port()).await;
+            let header = FrameHeader { is_final: true, opcode: OpCode::Data(Data::Text), ..FrameHeader::default() };
+            bad.send(Message::Frame(Frame::from_payload(header, vec![0xff, 0xfe, 0x7b].into()))).await.unwrap();
+            let (error, code) = close_code(bad).await;
+            assert_eq!(error["data"]["code"], "INVALID_JSON", "{error}");
+            assert_eq!(code, Some(1007), "{error}");
+        });
+    }
+
+    /// With `--token-var`, every request but /health needs the bearer token,
+    /// WebSocket upgrades included.
+    #[test]
+    fn a_bearer_token_guards_every_route_but_health() {
+        let server = EnvServer(super::super::support::Server::spawn_with_env(
+            "env-server",
+            &["--token-var", "NEGOTIATOR_IT_TOKEN"],
+            "",
+            &[("NEGOTIATOR_IT_TOKEN", "s3cret-token")],
+        ));
+        runtime().block_on(async {
+            let http = reqwest::Client::new();
+            let health = http.get(server.url("/health")).send().await.unwrap();
+            assert_eq!(health.status().as_u16(), 200);
+            let refused = http.post(server.url("/reset")).body("{}").send().await.unwrap();
+            assert_eq!(refused.status().as_u16(), 401);
+            let body: Value = refused.json().await.unwrap();
+            assert!(body["detail"].is_string());
+            let wrong = http.get(server.url("/schema")).bearer_auth("nope").send().await.unwrap();
+            assert_eq!(wrong.status().as_u16(), 401);
+            let ok = http.post(server.url("/reset")).bearer_auth("s3cret-token").body("{}").send().await.unwrap();
+            assert_eq!(ok.status().as_u16(), 200);
+            assert!(tokio_tungstenite::connect_async(format!("ws://127.0.0.1:{}/ws", server.port())).await.is_err());
+            let mut request = tokio_tungstenite::tungstenite::client::IntoClientRequest::into_client_request(format!(
+                "ws://127.0.0.1:{}/ws",
+                server.port()
+            ))
+            .unwrap();
+            request.headers_mut().insert("authorization", "Bearer s3cret-token".parse().unwrap());
+            let (mut ws, _) = tokio_tungstenite::connect_async(request).await.unwrap();
+            let reply = exchange(&mut ws, &json!({"type": "reset", "data": {"seed": 1}})).await.unwrap();
+            assert_eq!(reply["type"], "observation");
+        });
+    }
+}

@@ -35,9 +35,15 @@ impl Server {
     /// `negotiator SUBCOMMAND --port 0 ARGS`, its port read from the first
     /// line `listening on http://127.0.0.1:PORT{suffix}`.
     pub fn spawn(subcommand: &str, args: &[&str], suffix: &str) -> Server {
+        Server::spawn_with_env(subcommand, args, suffix, &[])
+    }
+
+    /// [`Server::spawn`] with extra environment variables.
+    pub fn spawn_with_env(subcommand: &str, args: &[&str], suffix: &str, env: &[(&str, &str)]) -> Server {
         let mut child = negotiator()
             .args([subcommand, "--port", "0"])
             .args(args)
+            .envs(env.iter().copied())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -56,6 +62,22 @@ impl Server {
 
     pub fn base_url(&self) -> String {
         format!("http://127.0.0.1:{}/v1", self.port)
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Wait up to `limit` for the process to exit by itself.
+    pub fn exited_within(&mut self, limit: std::time::Duration) -> Option<std::process::ExitStatus> {
+        let start = std::time::Instant::now();
+        while start.elapsed() < limit {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return Some(status);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        None
     }
 }
 
