@@ -1,0 +1,3 @@
+"""Inspect's entry point: importing this registers the `negotiator` task."""
+
+from .task import negotiator  # noqa: F401

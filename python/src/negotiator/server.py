@@ -1,0 +1,85 @@
+"""The env-server an Inspect run plays on: one named by its URL, or a local
+`negotiator env-server` started from the binary on PATH (or NEGOTIATOR_BIN)
+for this process and stopped when it exits."""
+
+from __future__ import annotations
+
+import atexit
+import os
+import shutil
+import subprocess
+import threading
+from typing import Any
+
+import httpx
+
+_LISTENING = "listening on "
+_lock = threading.Lock()
+_local: LocalServer | None = None
+
+
+class EnvServerError(RuntimeError):
+    """env-server refused a request or could not be started."""
+
+
+class LocalServer:
+    """`negotiator env-server --port 0` as a child process."""
+
+    def __init__(self, binary: str) -> None:
+        self.process = subprocess.Popen(
+            [binary, "env-server", "--port", "0"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        assert self.process.stdout is not None
+        line = self.process.stdout.readline().strip()
+        if not line.startswith(_LISTENING):
+            self.close()
+            raise EnvServerError(f"{binary} env-server did not start (first line: {line!r})")
+        self.url = line[len(_LISTENING) :]
+
+    def close(self) -> None:
+        if self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+
+
+def binary() -> str:
+    """The negotiator binary: NEGOTIATOR_BIN, else `negotiator` on PATH."""
+    named = os.environ.get("NEGOTIATOR_BIN")
+    if named:
+        return named
+    found = shutil.which("negotiator")
+    if found is None:
+        raise EnvServerError(
+            "no env-server to play on: pass -T base_url=URL, set NEGOTIATOR_BIN, or put negotiator on PATH"
+        )
+    return found
+
+
+def server_url(base_url: str | None) -> str:
+    """`base_url` itself, or the URL of this process's local env-server
+    (started on first use, stopped at exit)."""
+    if base_url:
+        return base_url.rstrip("/")
+    global _local
+    with _lock:
+        if _local is None or _local.process.poll() is not None:
+            _local = LocalServer(binary())
+            atexit.register(_local.close)
+        return _local.url
+
+
+async def post(http: httpx.AsyncClient, path: str, body: dict[str, Any]) -> dict[str, Any]:
+    """One env-server request; a refusal is an error with the server's own
+    `detail` (a bug in the task, never a model's fault)."""
+    response = await http.post(path, json=body)
+    if response.status_code != 200:
+        raise EnvServerError(f"env-server {path}: {response.status_code} {response.text[:300]}")
+    reply: dict[str, Any] = response.json()
+    return reply

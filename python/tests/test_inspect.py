@@ -1,0 +1,134 @@
+"""The Inspect task against what we did not write and against `negotiator
+eval`, offline: Inspect's `openai-api` provider pointed at `negotiator serve
+--policy expert` must play the episodes `negotiator eval` plays against the
+same server, seed for seed; Inspect's `mockllm`, whose default answer is no
+JSON action, must drive every turn as eval's firm stop.
+
+Needs NEGOTIATOR_BIN (the built binary) and NEGOTIATOR_EXAMPLES (the
+directory with the built `reference_rollouts` example).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from inspect_ai import eval as inspect_eval
+from inspect_ai.log import EvalLog
+from inspect_ai.model import ModelOutput, ModelUsage, get_model
+
+from negotiator.task import negotiator
+
+SEEDS = 3
+BIN = os.environ.get("NEGOTIATOR_BIN", "negotiator")
+MOCK_DEFAULT = "Default output from mockllm/model"
+
+
+def start(*args: str) -> tuple[subprocess.Popen[str], str]:
+    process = subprocess.Popen(
+        [BIN, *args, "--port", "0"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+    )
+    assert process.stdout is not None
+    line = process.stdout.readline().strip()
+    assert line.startswith("listening on "), line
+    return process, line[len("listening on ") :]
+
+
+@pytest.fixture(scope="module")
+def env_server() -> Iterator[str]:
+    process, url = start("env-server")
+    yield url
+    process.terminate()
+    process.wait()
+
+
+@pytest.fixture(scope="module")
+def expert_endpoint() -> Iterator[str]:
+    process, url = start("serve", "--policy", "expert")
+    yield url
+    process.terminate()
+    process.wait()
+
+
+def episodes(log: EvalLog) -> dict[tuple[str, int, int], dict[str, object]]:
+    assert log.status == "success", log.error
+    assert log.samples is not None
+    out = {}
+    for sample in log.samples:
+        assert sample.scores is not None
+        score = next(iter(sample.scores.values()))
+        md = score.metadata or {}
+        out[(md["scenario"], int(md["tier"]), int(md["seed"]))] = md
+    return out
+
+
+def test_inspect_plays_the_episodes_eval_plays(env_server: str, expert_endpoint: str, tmp_path: Path) -> None:
+    os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
+    os.environ["NEGOTIATOR_API_KEY"] = "offline"
+    [log] = inspect_eval(
+        negotiator(seeds=SEEDS, base_url=env_server),
+        model="openai-api/negotiator/expert",
+        log_dir=str(tmp_path / "logs"),
+        display="none",
+    )
+    ours = episodes(log)
+    run = subprocess.run(
+        [BIN, "eval", "--base-url", expert_endpoint, "--model", "expert", "--scenario", "all", "--tier", "all",
+         "-n", str(SEEDS), "--output", str(tmp_path / "eval"), "--run-name", "expert"],
+        capture_output=True, text=True, check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    rollouts = [json.loads(line) for line in (tmp_path / "eval" / "expert" / "rollouts.jsonl").read_text().splitlines()]
+    assert len(rollouts) == len(ours) == 9 * SEEDS
+    for r in rollouts:
+        mine = ours[(r["scenario"], r["tier"], r["seed"])]
+        assert (mine["outcome"], mine["reward"], mine["decisions"], mine["disposition"]) == (
+            r["outcome"], r["reward"], r["turns_taken"], r["disposition"],
+        ), r["scenario"]
+        assert mine["decision_correctness"] == r["decision_correctness"]
+
+
+def test_mockllms_default_answer_drives_as_evals_firm_stop(env_server: str, tmp_path: Path) -> None:
+    # mockllm's default answer, with usage given so that it does not count
+    # tokens with tiktoken (which fetches its encoding from the internet).
+    answer = ModelOutput.from_content(model="mockllm", content=MOCK_DEFAULT)
+    answer.usage = ModelUsage(input_tokens=1, output_tokens=1, total_tokens=2)
+    model = get_model("mockllm/model", custom_outputs=[answer] * 1000)
+    [log] = inspect_eval(
+        negotiator(seeds=SEEDS, base_url=env_server), model=model, log_dir=str(tmp_path / "logs"), display="none"
+    )
+    ours = episodes(log)
+    # The Rust loop's conservative action for an unreadable answer: stop,
+    # acceleration -0.5 (|0.5| of the stop band).
+    examples = os.environ.get("NEGOTIATOR_EXAMPLES", str(Path(BIN).parent / "examples"))
+    reference = subprocess.run(
+        [str(Path(examples) / "reference_rollouts"), "stop:0.5", str(SEEDS)],
+        capture_output=True, text=True, check=True,
+    ).stdout.splitlines()
+    assert len(reference) == len(ours) == 9 * SEEDS
+    for line in reference:
+        ref = json.loads(line)
+        mine = ours[(ref["scenario"], ref["tier"], ref["seed"])]
+        assert (mine["outcome"], mine["reward"], mine["decisions"]) == (ref["outcome"], ref["reward"], ref["decisions"])
+        assert mine["parse_errors"] == mine["decisions"], "every answer is a parse error"
+
+
+def test_the_disposition_shows_only_after_the_episode(env_server: str, expert_endpoint: str, tmp_path: Path) -> None:
+    os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
+    os.environ["NEGOTIATOR_API_KEY"] = "offline"
+    [log] = inspect_eval(
+        negotiator(scenario="yield_standoff", tier="1", seeds=SEEDS, base_url=env_server),
+        model="openai-api/negotiator/expert",
+        log_dir=str(tmp_path / "logs"),
+        display="none",
+    )
+    assert log.samples
+    for sample in log.samples:
+        disposition = next(iter(sample.scores.values())).metadata["disposition"]  # type: ignore[union-attr]
+        for message in sample.messages:
+            assert disposition not in message.text, f"{disposition} in a message"
+        assert disposition not in json.dumps(sample.metadata)
