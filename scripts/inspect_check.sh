@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The Inspect AI task (python/), checked offline in a virtual environment
-# built from the package registries: `pip install ./python[test]`, then
-# pytest (python/tests): Inspect's openai-api provider against `negotiator
+# built from the package registries: `pip install ./python[test]`, mypy
+# --strict over the package and its tests, then pytest (python/tests): Inspect's openai-api provider against `negotiator
 # serve --policy expert` must play the episodes `negotiator eval` plays, seed
 # for seed; Inspect's mockllm must drive as eval's firm stop.
 # Usage: scripts/inspect_check.sh   (CI runs it from .ci/run)
@@ -21,5 +21,6 @@ fi
 "$venv/bin/pip" install --quiet "$root/python[test]"
 echo "inspect-ai $("$venv/bin/python" -c 'import importlib.metadata as m; print(m.version("inspect_ai"))')"
 cd "$root/python"
+"$venv/bin/python" -m mypy src/negotiator tests
 NEGOTIATOR_BIN=$root/target/release/negotiator NEGOTIATOR_EXAMPLES=$root/target/release/examples \
   "$venv/bin/python" -m pytest -q

@@ -128,7 +128,9 @@ def test_the_disposition_shows_only_after_the_episode(env_server: str, expert_en
     )
     assert log.samples
     for sample in log.samples:
-        disposition = next(iter(sample.scores.values())).metadata["disposition"]  # type: ignore[union-attr]
+        assert sample.scores is not None
+        metadata = next(iter(sample.scores.values())).metadata or {}
+        disposition = metadata["disposition"]
         for message in sample.messages:
             assert disposition not in message.text, f"{disposition} in a message"
         assert disposition not in json.dumps(sample.metadata)

@@ -105,10 +105,8 @@ fn eval_against_the_served_expert_reproduces_the_ideal_observer_exactly() {
     let figures = crate::report::paper_style_figures(&rep.join("plots"), &paper.join("plots"));
     assert!(figures.iter().any(|(style, name, _)| *style == "paper" && name == "belief_over_time"));
     let chromium = Path::new("/usr/bin/chromium");
-    if chromium.exists() {
+    if crate::support::tool_available(chromium.exists(), "chromium (/usr/bin/chromium) for the belief figures") {
         crate::report::render_figures(chromium, &out, &figures);
-    } else {
-        eprintln!("skipped: chromium not installed (/usr/bin/chromium); the belief figures were not rendered");
     }
     for cell in summary_cells(&out.join("run")) {
         let b = &cell["belief"];

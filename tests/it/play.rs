@@ -144,9 +144,7 @@ impl Drop for Tmux {
 
 #[test]
 fn a_person_plays_in_a_terminal_quits_and_resumes() {
-    if !Tmux::available() {
-        // CI installs tmux (.ci/run); a machine without it cannot run this.
-        eprintln!("skipped: tmux not installed");
+    if !crate::support::tool_available(Tmux::available(), "tmux") {
         return;
     }
     let dir = scratch("play-tmux");

@@ -1012,10 +1012,7 @@ fn end_to_end_report_files_and_offline_html() {
 
     // Headless Chromium renders it and the drill-down script fills the episode view.
     let chromium = Path::new("/usr/bin/chromium");
-    if !chromium.exists() {
-        eprintln!(
-            "skipped: chromium not installed (/usr/bin/chromium); apt-get install -y chromium to run the render test"
-        );
+    if !crate::support::tool_available(chromium.exists(), "chromium (/usr/bin/chromium) for the render test") {
         return;
     }
     let profile = root.join("chromium-profile");

@@ -177,3 +177,19 @@ pub fn respond(status: u16, body: Value) -> axum::response::Response {
 pub fn reply(content: &str) -> axum::response::Response {
     respond(200, json!({"choices": [{"message": {"role": "assistant", "content": content}, "finish_reason": "stop"}]}))
 }
+
+/// Whether an outside tool a test drives (Chromium, tmux) is there. In CI
+/// (`CI=true`) a missing one fails the test: `.ci/run` installs it, and a
+/// test that skipped there would pass having checked nothing. Elsewhere the
+/// test says "skipped" and goes on without it.
+pub fn tool_available(available: bool, what: &str) -> bool {
+    if available {
+        return true;
+    }
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{what} is not installed, and CI must run this test (.ci/run installs it)"
+    );
+    eprintln!("skipped: {what} not installed");
+    false
+}
