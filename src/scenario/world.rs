@@ -238,8 +238,9 @@ impl EgoApproach {
 
     /// Whether the ego could still stop short of the conflict as a driver
     /// does when someone steps out: after a reaction time, braking firmly
-    /// but not in an emergency ([`REACTION_S`], [`FIRM_BRAKE`]). No road
-    /// user that waits for the ego starts into its path when this is false.
+    /// but not in an emergency ([`REACTION_S`], [`FIRM_BRAKE`]). A road
+    /// user that waits for the ego and starts into its path while this is
+    /// false is what `validate`'s "road users accept gaps" line counts.
     pub fn can_stop_comfortably(&self) -> bool {
         self.to_conflict > 0.0 && self.v * REACTION_S + self.v * self.v / (2.0 * FIRM_BRAKE) < self.to_conflict
     }
