@@ -17,13 +17,13 @@
 #   and GenericEnvClient again, through a bearer token (`--token-var`).
 # Usage: scripts/openenv_check.sh   (CI runs it from .ci/run)
 # Environment: OPENENV_CHECK_VENVS (default target/openenv-check, reused when
-# present), OPENENV_CHECK_SEEDS (50), OPENENV_CHECK_EVAL_SEEDS (7), PYTHON.
+# present), OPENENV_CHECK_SEEDS (50), OPENENV_CHECK_EVAL_SEEDS (3), PYTHON.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 venvs=${OPENENV_CHECK_VENVS:-$root/target/openenv-check}
 seeds=${OPENENV_CHECK_SEEDS:-50}
-eval_seeds=${OPENENV_CHECK_EVAL_SEEDS:-7}
+eval_seeds=${OPENENV_CHECK_EVAL_SEEDS:-3}
 python=${PYTHON:-python3}
 schedule="yield:0.6:3,nudge_forward:0.5:3,proceed:0.8"
 

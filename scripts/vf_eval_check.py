@@ -31,7 +31,7 @@ def main():
     (work / "eval.toml").write_text(
         f"""model = "expert"
 num_rollouts = 1
-max_concurrent = 2
+max_concurrent = 4
 output_dir = "{work / 'out'}"
 
 [client]
