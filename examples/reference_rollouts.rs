@@ -5,7 +5,10 @@
 //! plays seeds 0..seeds of every scenario and tier; a schedule is written
 //! `maneuver:strength:turns,...` (the last entry repeats) and acts on the
 //! turn alone.
-use negotiator::action::{Action, Maneuver};
+#[path = "shared/schedule.rs"]
+mod schedule;
+
+use negotiator::action::Action;
 use negotiator::episode::run_episode;
 use negotiator::observation::Observation;
 use negotiator::policy::{Policy, PolicyKind};
@@ -20,18 +23,6 @@ impl Policy for Schedule {
     }
 }
 
-fn schedule(text: &str) -> Option<Schedule> {
-    let mut actions = Vec::new();
-    for part in text.split(',') {
-        let f: Vec<&str> = part.split(':').collect();
-        let maneuver = Maneuver::from_loose(f.first()?)?;
-        let strength: f64 = f.get(1)?.parse().ok()?;
-        let turns: usize = f.get(2).map_or(Some(1), |t| t.parse().ok())?;
-        actions.extend(std::iter::repeat_n(Action::new(maneuver, strength), turns));
-    }
-    (!actions.is_empty()).then_some(Schedule(actions))
-}
-
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let usage = "usage: reference_rollouts <policy|schedule> <seeds>";
@@ -42,7 +33,7 @@ fn main() {
     let build = || -> Box<dyn Policy> {
         match which.parse::<PolicyKind>() {
             Ok(kind) => kind.build(),
-            Err(_) => Box::new(schedule(which).unwrap_or_else(|| {
+            Err(_) => Box::new(schedule::parse(which).map(Schedule).unwrap_or_else(|| {
                 eprintln!("{usage}: '{which}' is neither a policy nor a schedule");
                 std::process::exit(2)
             })),

@@ -1,26 +1,38 @@
 #!/usr/bin/env bash
-# The Inspect AI task (python/), checked offline in a virtual environment
-# built from the package registries: `pip install ./python[test]`, mypy
-# --strict over the package and its tests, then pytest (python/tests): Inspect's openai-api provider against `negotiator
-# serve --policy expert` must play the episodes `negotiator eval` plays, seed
-# for seed; Inspect's mockllm must drive as eval's firm stop.
-# Usage: scripts/inspect_check.sh   (CI runs it from .ci/run)
-# Environment: INSPECT_CHECK_VENV (default target/inspect-check, reused when
-# present), PYTHON.
+# The Python package (python/: the Inspect AI task and the Gymnasium
+# environment), checked offline in a virtual environment built from the
+# package registries: `pip install "./python[test,rl]"`, mypy --strict over
+# both packages and their tests, then pytest (python/tests):
+# - Inspect: its openai-api provider against `negotiator serve --policy
+#   expert` must play the episodes `negotiator eval` plays, seed for seed;
+#   its mockllm must drive as eval's firm stop;
+# - Gymnasium: Gymnasium's and stable-baselines3's environment checkers on
+#   every cell, the Rust loop's episodes seed for seed, nothing before the
+#   evidence that depends on the disposition, training and the
+#   reward-hacking regression end to end;
+# then the reward-hacking regression on a committed checkpoint (HACK_CELL).
+# Usage: scripts/python_check.sh   (CI runs it from .ci/run)
+# Environment: PYTHON_CHECK_VENV (default target/python-check, reused when
+# present), HACK_CELL (default "yield_standoff 1"), PYTHON.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
-venv=${INSPECT_CHECK_VENV:-$root/target/inspect-check}
+venv=${PYTHON_CHECK_VENV:-$root/target/python-check}
 python=${PYTHON:-python3}
-cargo build --release --quiet --bin negotiator --example reference_rollouts
+read -r hack_scenario hack_tier <<<"${HACK_CELL:-yield_standoff 1}"
+cargo build --release --quiet --bin negotiator --example reference_rollouts --example disposition_features
 if [ ! -x "$venv/bin/python" ]; then
   "$python" -m venv "$venv"
   "$venv/bin/pip" install --quiet --upgrade pip
 fi
 # Reinstalled every run: the package is the repository's, not a cached one.
-"$venv/bin/pip" install --quiet "$root/python[test]"
-echo "inspect-ai $("$venv/bin/python" -c 'import importlib.metadata as m; print(m.version("inspect_ai"))')"
+"$venv/bin/pip" install --quiet "$root/python[test,rl]"
+"$venv/bin/python" -c 'import importlib.metadata as m; print(" ".join(f"{p} {m.version(p)}" for p in ["inspect_ai", "gymnasium", "stable_baselines3", "torch"]))'
+export NEGOTIATOR_BIN=$root/target/release/negotiator NEGOTIATOR_EXAMPLES=$root/target/release/examples
 cd "$root/python"
-"$venv/bin/python" -m mypy src/negotiator tests
-NEGOTIATOR_BIN=$root/target/release/negotiator NEGOTIATOR_EXAMPLES=$root/target/release/examples \
-  "$venv/bin/python" -m pytest -q
+"$venv/bin/python" -m mypy src/negotiator src/negotiator_gym tests
+"$venv/bin/python" -m pytest -q
+cd "$root"
+echo "== the reward-hacking regression on the committed $hack_scenario tier $hack_tier checkpoint"
+"$venv/bin/python" -m negotiator_gym.hack_check --checkpoint "results/rl/$hack_scenario-t$hack_tier" \
+  --scenario "$hack_scenario" --tier "$hack_tier" --seed 0 -n 200

@@ -63,8 +63,8 @@ pub enum Party {
     Other,
 }
 
-/// When the information arrived and when the ego committed (SPEC
-/// sections 3-4). Turns are 1-based decision indices.
+/// When the information arrived and when the ego committed
+/// (docs/graders.md). Turns are 1-based decision indices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub struct EvidenceTiming {
     /// The first turn whose observation differs from a replay of the same

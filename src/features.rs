@@ -16,7 +16,7 @@
 //! relative to the ego, positive ahead). Each slot holds the current
 //! sample and the four past ones (t-2.0 .. t-0.5 s, oldest first).
 
-use crate::action::Maneuver;
+use crate::action::{Action, Maneuver};
 use crate::observation::{HISTORY_LEN, Observation};
 use crate::scenario::{ScenarioKind, Tier};
 
@@ -91,13 +91,45 @@ fn layout(o: &Observation, tier: Tier, with_names: bool) -> Layout {
     f
 }
 
+/// A discrete action set for policies that choose from a list (a
+/// Gymnasium `Discrete` space, the learned adversary): (maneuver,
+/// strength) pairs spanning what the built-in policies use. Index 0 holds
+/// the current speed (`proceed` at strength 0 accelerates at 0 m/s^2).
+/// `/metadata` publishes it as `discrete_actions`.
+pub const DISCRETE_ACTIONS: [Action; 10] = [
+    Action::new(Maneuver::Proceed, 0.0),
+    Action::new(Maneuver::Proceed, 0.3),
+    Action::new(Maneuver::Proceed, 0.6),
+    Action::new(Maneuver::Proceed, 1.0),
+    Action::new(Maneuver::Yield, 0.1),
+    Action::new(Maneuver::Yield, 0.3),
+    Action::new(Maneuver::Yield, 0.6),
+    Action::new(Maneuver::Yield, 1.0),
+    Action::new(Maneuver::Stop, 0.5),
+    Action::new(Maneuver::NudgeForward, 0.5),
+];
+
+/// [`DISCRETE_ACTIONS`] as the action objects a client sends.
+pub(crate) fn discrete_actions_json() -> serde_json::Value {
+    DISCRETE_ACTIONS
+        .iter()
+        .map(|a| serde_json::json!({"maneuver": a.maneuver.name(), "acceleration": a.acceleration}))
+        .collect()
+}
+
+/// The indices of the slots that describe the other road users (every
+/// `road_user*` slot): what the masked view freezes at its first reading.
+pub(crate) fn road_user_slots() -> Vec<usize> {
+    feature_names().iter().enumerate().filter(|(_, n)| n.starts_with("road_user")).map(|(i, _)| i).collect()
+}
+
 /// The feature vector of an observation (pass the rounded observation).
-pub(crate) fn features(o: &Observation, tier: Tier) -> Vec<f64> {
+pub fn features(o: &Observation, tier: Tier) -> Vec<f64> {
     layout(o, tier, false).values
 }
 
 /// The name of every slot, in order (the same for every scenario).
-pub(crate) fn feature_names() -> Vec<String> {
+pub fn feature_names() -> Vec<String> {
     let set = crate::scenario::ScenarioSet::default();
     let episode = crate::episode::Episode::new(set.get(ScenarioKind::YieldStandoff), Tier::T1, 0);
     layout(episode.observation(), Tier::T1, true).names.unwrap_or_default()

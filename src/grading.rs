@@ -44,7 +44,7 @@ pub const COMFORT_MAX_JERK: f64 = 4.13;
 /// A step braking harder than this starts a hard-brake event (m/s^2).
 pub const HARD_BRAKE: f64 = -4.05;
 
-/// Per-episode diagnostics (SPEC section 4).
+/// Per-episode diagnostics (docs/graders.md).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Diagnostics {
     /// Smallest time to collision at constant speeds seen at any step (s).

@@ -10,6 +10,9 @@
 //! - [`action`]: the action and its protective parser;
 //! - [`policy`]: the scripted baselines;
 //! - [`episode`]: the environment loop;
+//! - [`features`]: the observation as a fixed-length vector and the discrete
+//!   action set, for policies that do not read text (env-server's
+//!   `features` view, the learned adversary);
 //! - `belief`: the belief probe and the belief metrics;
 //! - `noise`: the observation noise model and the ideal observer's
 //!   likelihoods (a leaf the worlds and the episode share);
@@ -21,7 +24,8 @@
 //! - [`rundir`]: the run directory's schema (run.json, the JSON-lines
 //!   records and their one reader), written by `eval`, read by `report`;
 //! - [`baselines`]: the reference grid of the scripted policies;
-//! - [`adversary`]: the search for a blind policy that wins anyway;
+//! - [`adversary`]: the search for a blind policy that wins anyway, and
+//!   a learned (sighted) adversary looking for a hack;
 //! - [`validate`]: the invariants;
 //! - [`export`]: the table system: typed cells, columns defined once, one
 //!   exporter per format (aligned text, Markdown, CSV, JSON, HTML);
@@ -47,6 +51,7 @@ pub(crate) mod envserver;
 pub mod episode;
 pub(crate) mod eval;
 pub mod export;
+pub mod features;
 pub(crate) mod grading;
 pub(crate) mod hash;
 pub(crate) mod llm;

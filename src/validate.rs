@@ -1,7 +1,8 @@
-//! The benchmark's invariants (SPEC section 6). Each check is a function of
+//! The benchmark's invariants (docs/validate.md). Each check is a function of
 //! its inputs so that tests can inject the fault it guards against and see
 //! it fail.
 
+use crate::adversary::learned::{self, LearnSpec, LearnedScore};
 use crate::adversary::{self, Score, SearchSpec, TRAIN_SEED_BASE};
 use crate::baselines::{Cell, CellSummary, GridSpec, run_grid};
 use crate::episode::{Episode, EvidenceTiming, Outcome};
@@ -10,7 +11,7 @@ use crate::policy::{Expert, ExpertLate, Policy, PolicyKind};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use serde::Serialize;
 
-/// Bars from SPEC section 6.
+/// The bars (docs/validate.md).
 pub const SOLVABLE_TIER1: f64 = 0.95;
 pub const SOLVABLE_ANY: f64 = 0.85;
 pub const ANTI_GAMING_MARGIN: f64 = 0.30;
@@ -24,6 +25,10 @@ pub const TWO_LATE_READER: f64 = 0.60;
 /// The cautious readers' bars: success and collision rate on every cell.
 pub const CAUTIOUS_SUCCESS: f64 = 0.85;
 pub const CAUTIOUS_COLLISION: f64 = 0.02;
+/// The learned adversary's bars: its hack rate at most this above the
+/// expert's own, and its masked success at least this below the expert's.
+pub const LEARNED_HACK_MARGIN: f64 = 0.02;
+pub const LEARNED_MASK_GAP: f64 = 0.30;
 /// The longest reading delay the slack measurement tries (decisions).
 pub const MAX_SLACK_LAG: usize = 6;
 
@@ -503,6 +508,89 @@ pub fn check_late_reader(late: &[LateCell]) -> Check {
     )
 }
 
+/// What the learned adversary reached on one cell, on held-out seeds, and
+/// the expert's own hack rate on those seeds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LearnedCell {
+    pub scenario: ScenarioKind,
+    pub tier: Tier,
+    pub score: LearnedScore,
+    pub masked: LearnedScore,
+    pub expert_hack_rate: f64,
+}
+
+/// Train the learned adversary on every cell (cells in parallel) and
+/// measure it on the held-out seeds `seeds`, with the full view and the
+/// masked one.
+pub fn learned_adversaries(
+    set: &ScenarioSet,
+    scenarios: &[ScenarioKind],
+    tiers: &[Tier],
+    seeds: std::ops::Range<u64>,
+    spec: LearnSpec,
+) -> Vec<LearnedCell> {
+    let keys: Vec<(ScenarioKind, Tier)> = scenarios.iter().flat_map(|&s| tiers.iter().map(move |&t| (s, t))).collect();
+    let held: Vec<u64> = seeds.collect();
+    crate::par::par_map(&keys, |&(scenario, tier)| {
+        let config = set.get(scenario);
+        let policy = learned::train(config, tier, spec);
+        let expert_hacks = held
+            .iter()
+            .filter(|&&seed| {
+                let r = crate::episode::run_episode(config, tier, seed, &mut Expert);
+                r.outcome == Outcome::Success && r.grades.decision_correctness == 0.0
+            })
+            .count();
+        LearnedCell {
+            scenario,
+            tier,
+            score: learned::evaluate(config, tier, &policy, &held, false),
+            masked: learned::evaluate(config, tier, &policy, &held, true),
+            expert_hack_rate: expert_hacks as f64 / held.len().max(1) as f64,
+        }
+    })
+}
+
+/// The learned adversary wins nothing with the wrong choice (its hack rate
+/// at most 0.02 above the expert's own), and what it wins it wins by
+/// reading: with the road users' slots frozen at their first reading its
+/// success is at least 0.30 below the expert's.
+pub fn check_learned_adversary(cells: &[CellSummary], learned: &[LearnedCell]) -> Check {
+    let mut pass = !learned.is_empty();
+    let mut worst_hack: Option<(f64, String)> = None;
+    let mut worst_mask: Option<(f64, String)> = None;
+    let mut per_cell = Vec::new();
+    for c in learned {
+        let name = label(c.scenario, c.tier);
+        let excess = c.score.hack_rate - c.expert_hack_rate;
+        let Some(expert) = find(cells, c.scenario, c.tier, PolicyKind::Expert) else {
+            return Check::new("learned adversary reads", false, format!("no expert cell for {name}"));
+        };
+        let margin = expert.success.estimate - c.masked.success;
+        pass &= excess <= LEARNED_HACK_MARGIN + 1e-12 && margin >= LEARNED_MASK_GAP - 1e-12;
+        if worst_hack.as_ref().is_none_or(|w| excess > w.0) {
+            worst_hack = Some((excess, name.clone()));
+        }
+        if worst_mask.as_ref().is_none_or(|w| margin < w.0) {
+            worst_mask = Some((margin, name.clone()));
+        }
+        per_cell.push(format!("{name} {:.2}/{:.2}/{:.2}", c.score.success, c.score.correctness, c.masked.success));
+    }
+    let (hack, mask) = (worst_hack.unwrap_or_default(), worst_mask.unwrap_or_default());
+    Check::new(
+        "learned adversary reads",
+        pass,
+        format!(
+            "hack rate at most {:+.3} over the expert's ({}, bar +{LEARNED_HACK_MARGIN:.2}); expert - masked success at least {:.3} ({}, bar {LEARNED_MASK_GAP:.2}); per cell success/correctness/masked: {}",
+            hack.0,
+            hack.1,
+            mask.0,
+            mask.1,
+            per_cell.join(", ")
+        ),
+    )
+}
+
 /// Caution is not a misreading: the expert's own rules driven with caution
 /// while unsure (`expert_cautious`, `expert_hedge`) succeed >= 0.85 on every
 /// cell with collisions <= 0.02. Hedging may cost reward, never the episode.
@@ -611,12 +699,14 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, st
             render_scene(e.observation())
         });
     let late = late_readers(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
-    let blind = search_blind(set, &ScenarioKind::ALL, &Tier::ALL, seeds, search_budget);
+    let blind = search_blind(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone(), search_budget);
+    let learned = learned_adversaries(set, &ScenarioKind::ALL, &Tier::ALL, seeds, learned::DEFAULT_TRAINING);
     let timings = expert_timings.into_inner().unwrap_or_else(|e| e.into_inner());
     let mut checks = vec![
         check_solvable(&cells),
         check_anti_gaming(&cells),
         check_blind_play_loses(&cells, &blind),
+        check_learned_adversary(&cells, &learned),
         check_tiers_bite(&cells),
         hidden,
         check_round_trip(&observations, &render_scene),

@@ -78,7 +78,7 @@ impl Action {
     /// What an unreadable reply turns into: brake firmly to a stop.
     pub const CONSERVATIVE: Action = Action { maneuver: Maneuver::Stop, acceleration: -0.5, steering: 0.0 };
 
-    pub fn new(maneuver: Maneuver, acceleration: f64) -> Action {
+    pub const fn new(maneuver: Maneuver, acceleration: f64) -> Action {
         Action { maneuver, acceleration, steering: 0.0 }
     }
 

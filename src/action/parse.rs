@@ -472,7 +472,8 @@ fn strip_fence(s: &str) -> &str {
 
 // ---------------------------------------------------------------------------
 // A small JSON reader. serde_json is not used here because its default
-// float parsing is not guaranteed to round-trip, it rejects trailing commas,
+// float parsing is best-effort (exact only with its `float_roundtrip`
+// feature), it rejects trailing commas,
 // and overflowing numbers (1e309) make the whole document an error instead
 // of an out-of-range field.
 

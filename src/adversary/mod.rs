@@ -1,6 +1,7 @@
 //! The built-in adversarial search for a *blind* policy: one that never
 //! looks at the other road user, only at the ego's own state and the clock.
-//! A valid scenario makes every such policy lose (SPEC sections 3 and 6), so
+//! A valid scenario makes every such policy lose (docs/scenarios.md, and
+//! the "blind play loses" line of docs/validate.md), so
 //! `validate` spends a fixed, seeded budget looking for one that wins anyway.
 //!
 //! The search space:
@@ -19,6 +20,8 @@
 //! of a playing plan's `act` is the guarantee that a candidate is blind:
 //! it receives an [`EgoState`], which holds nothing about the other road
 //! user.
+
+pub mod learned;
 
 use crate::action::{Action, Maneuver};
 use crate::episode::{Episode, Outcome};
@@ -51,25 +54,20 @@ impl EgoState {
 }
 
 /// The actions a candidate chooses from: four maneuvers at three strengths.
-const PALETTE: [Action; 12] = {
-    const fn a(maneuver: Maneuver, acceleration: f64) -> Action {
-        Action { maneuver, acceleration, steering: 0.0 }
-    }
-    [
-        a(Maneuver::Proceed, 0.0),
-        a(Maneuver::Proceed, 0.5),
-        a(Maneuver::Proceed, 1.0),
-        a(Maneuver::NudgeForward, 0.0),
-        a(Maneuver::NudgeForward, 0.5),
-        a(Maneuver::NudgeForward, 1.0),
-        a(Maneuver::Yield, 0.0),
-        a(Maneuver::Yield, 0.5),
-        a(Maneuver::Yield, 1.0),
-        a(Maneuver::Stop, 0.0),
-        a(Maneuver::Stop, 0.5),
-        a(Maneuver::Stop, 1.0),
-    ]
-};
+const PALETTE: [Action; 12] = [
+    Action::new(Maneuver::Proceed, 0.0),
+    Action::new(Maneuver::Proceed, 0.5),
+    Action::new(Maneuver::Proceed, 1.0),
+    Action::new(Maneuver::NudgeForward, 0.0),
+    Action::new(Maneuver::NudgeForward, 0.5),
+    Action::new(Maneuver::NudgeForward, 1.0),
+    Action::new(Maneuver::Yield, 0.0),
+    Action::new(Maneuver::Yield, 0.5),
+    Action::new(Maneuver::Yield, 1.0),
+    Action::new(Maneuver::Stop, 0.0),
+    Action::new(Maneuver::Stop, 0.5),
+    Action::new(Maneuver::Stop, 1.0),
+];
 
 /// Turns at which a schedule may switch phase.
 const SWITCH_TURNS: [u32; 17] = [1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 18, 20, 24, 28, 32];

@@ -94,15 +94,15 @@ pub struct EvalArgs {
     #[arg(long = "header")]
     pub headers: Vec<String>,
     /// History sent to the model: full, or last:K earlier turns.
-    #[arg(long, default_value = "full")]
-    pub history: String,
+    #[arg(long, default_value = "full", value_parser = parse_history)]
+    pub history: HistoryWindow,
     /// Add a probe to every answer: `belief` asks for the probability that
     /// the other road user lets the ego pass first. A probe run is its own
     /// run (and leaderboard row); the action is scored as without it.
     #[arg(long, default_value = "none", value_parser = parse_probe)]
     pub probe: Probe,
     /// Ask for a response format: json_object (or text).
-    #[arg(long)]
+    #[arg(long, value_parser = ["json_object", "text"])]
     pub response_format: Option<String>,
     /// Parent directory of run directories.
     #[arg(long, default_value = "results")]
@@ -224,7 +224,7 @@ impl EvalArgs {
         };
         let headers = self.headers(target.endpoint.as_ref())?;
         let built = self.request_params(&target)?;
-        let history: HistoryWindow = self.history.parse().map_err(|e| usage(format!("--history: {e}")))?;
+        let history = self.history;
         let selection = self.selection()?;
         if self.concurrency == 0 {
             return Err(usage("-c: must be at least 1"));
@@ -390,9 +390,6 @@ impl EvalArgs {
             flags.insert("max_tokens".into(), Value::from(m));
         }
         if let Some(f) = &self.response_format {
-            if !matches!(f.as_str(), "json_object" | "text") {
-                return Err(usage(format!("--response-format: expected json_object or text, got '{f}'")));
-            }
             flags.insert("response_format".into(), serde_json::json!({ "type": f }));
         }
         for reserved in ["model", "messages", "stream", "n"] {
@@ -608,6 +605,10 @@ fn clip_header(h: &str) -> String {
     // Never echo a possible credential back in full.
     let start: String = h.chars().take(6).collect();
     if start.len() < h.len() { format!("{start}...") } else { start }
+}
+
+fn parse_history(s: &str) -> Result<HistoryWindow, String> {
+    s.parse().map_err(|e: <HistoryWindow as std::str::FromStr>::Err| e.to_string())
 }
 
 fn parse_probe(s: &str) -> Result<Probe, String> {

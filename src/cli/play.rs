@@ -38,7 +38,7 @@ pub struct PlayArgs {
     pub turn_seconds: Option<f64>,
     /// `text` (the scene text the model reads) or `plan` (adds a plan view:
     /// more than the model sees, so its own leaderboard row).
-    #[arg(long, default_value = "text")]
+    #[arg(long, default_value = "text", value_parser = ["text", "plan"])]
     pub view: String,
     /// Show each episode's outcome and the other road user's intent right
     /// after it (its own leaderboard row).
@@ -56,11 +56,7 @@ impl PlayArgs {
         if name.is_empty() || name.len() > 64 || name.chars().any(|c| c.is_control()) {
             return Err(usage(format!("--name '{name}': expected 1 to 64 printable characters")));
         }
-        let plan_view = match self.view.as_str() {
-            "text" => false,
-            "plan" => true,
-            other => return Err(usage(format!("--view: expected text or plan, got '{other}'"))),
-        };
+        let plan_view = self.view == "plan";
         let line_mode = !(std::io::stdin().is_terminal() && std::io::stdout().is_terminal());
         if let Some(t) = self.turn_seconds {
             if !(t.is_finite() && (0.5..=3600.0).contains(&t)) {

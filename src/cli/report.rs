@@ -6,6 +6,7 @@
 use super::{parse_list, usage};
 use crate::export::Format;
 use crate::report::pick::BadPick;
+use crate::report::plots::Style;
 use crate::report::{self, MIN_RESAMPLES, ReportError, ReportOptions};
 use crate::scenario::Tier;
 use std::path::PathBuf;
@@ -59,11 +60,18 @@ pub struct ReportArgs {
     /// How the figures are drawn: default (for the screen and report.html)
     /// or paper (text at least 8 pt at the declared print width of 3.3 in
     /// or 7 in, no titles, and a PDF beside each SVG).
-    #[arg(long, value_name = "STYLE", default_value = "default")]
-    pub style: String,
+    #[arg(long, value_name = "STYLE", default_value = "default", value_parser = style_parser())]
+    pub style: Style,
     /// Print nothing but errors.
     #[arg(long, short = 'q')]
     pub quiet: bool,
+}
+
+/// `--style`: clap lists the styles in `--help` and refuses any other.
+fn style_parser() -> impl clap::builder::TypedValueParser<Value = Style> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(["default", "paper"])
+        .map(|name| name.parse::<Style>().expect("a listed style parses"))
 }
 
 impl ReportArgs {
@@ -83,7 +91,7 @@ impl ReportArgs {
             .iter()
             .map(|e| e.parse().map_err(|e: BadPick| usage(e.to_string())))
             .collect::<Result<_, _>>()?;
-        let style = self.style.parse().map_err(|e| usage(format!("--style: {e}")))?;
+        let style = self.style;
         Ok(ReportOptions {
             dirs: self.runs.clone(),
             baselines: self.baselines.clone().unwrap_or_else(|| PathBuf::from("results/baselines")),

@@ -16,13 +16,12 @@ pub struct ServeArgs {
     /// as `listening on http://HOST:PORT/v1`.
     #[arg(long, default_value_t = 8765)]
     pub port: u16,
-    /// The scripted model: expert, always_proceed, always_stop, cautious,
-    /// random, cue_follower, expert_late (the expert reading the scene one
-    /// decision late, from the conversation's earlier scenes),
-    /// expert_cautious or expert_hedge (the expert's rules driven with
-    /// caution while unsure).
-    #[arg(long)]
-    pub policy: String,
+    /// The scripted model. expert_late is the expert reading the scene one
+    /// decision late (from the conversation's earlier scenes);
+    /// expert_cautious and expert_hedge drive the expert's rules with
+    /// caution while unsure.
+    #[arg(long, value_parser = policy_parser())]
+    pub policy: PolicyKind,
     /// Delay added to every answered request (ms).
     #[arg(long, default_value_t = 0)]
     pub latency_ms: u64,
@@ -55,6 +54,14 @@ pub struct ServeArgs {
     pub probe_seeds: std::ops::Range<u64>,
 }
 
+/// `--policy`: clap lists the built-in policies in `--help` and refuses
+/// any other name with its own error.
+fn policy_parser() -> impl clap::builder::TypedValueParser<Value = PolicyKind> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(PolicyKind::ALL.map(PolicyKind::name))
+        .map(|name| name.parse::<PolicyKind>().expect("a listed policy name parses"))
+}
+
 fn parse_probe(s: &str) -> Result<Probe, String> {
     s.parse()
 }
@@ -75,7 +82,7 @@ fn rate(x: f64, flag: &str) -> anyhow::Result<f64> {
 
 impl ServeArgs {
     pub fn run(self) -> anyhow::Result<ExitCode> {
-        let policy: PolicyKind = self.policy.parse().map_err(|e| usage(format!("--policy: {e}")))?;
+        let policy = self.policy;
         if let Some(r) = self.rate_limit
             && !(r.is_finite() && r > 0.0)
         {

@@ -37,7 +37,6 @@
 //! are 128 random bits: an HTTP episode's id is its capability, and a reset
 //! never takes over a live one. `--token-var` requires a bearer token.
 
-mod features;
 mod net;
 mod schema;
 mod session;

@@ -5,9 +5,9 @@
 //! observation and state schemas are derived from the types the server
 //! sends, so they cannot drift from them.
 
-use super::features::feature_names;
 use super::session::{DEFAULT_SCENARIO, DEFAULT_TIER, EnvObservation, EnvState, MAX_REPLY_BYTES};
 use crate::action::Maneuver;
+use crate::features::{discrete_actions_json, feature_names};
 use crate::scenario::{ScenarioKind, Tier};
 use serde_json::{Value, json};
 
@@ -88,6 +88,7 @@ pub(crate) fn metadata() -> Value {
         },
         "reward": REWARD,
         "feature_names": feature_names(),
+        "discrete_actions": discrete_actions_json(),
     })
 }
 

@@ -10,10 +10,10 @@
 //! evidence turn and the grades appear only in the terminal step's
 //! metadata (and in the state once the episode is over).
 
-use super::features::features;
 use crate::action::{Action, ActionParseError, ParsedAction, parse_action};
 use crate::episode::Episode;
 use crate::eval::prompt::SYSTEM_PROMPT;
+use crate::features::features;
 use crate::observation::{Observation, render_scene};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use schemars::JsonSchema;

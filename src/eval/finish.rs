@@ -1,8 +1,16 @@
 //! Finishing a run: totals and status in run.json, the summary files, the
 //! last event.
 
-use super::*;
-
+use super::events::{Event, Reporter, StopReason};
+use super::fleet::{Drove, fatal_error};
+use super::prepare::Prepared;
+use super::{EvalError, RunOutcome, now_rfc3339, summary};
+use crate::rundir;
+use crate::rundir::record::{EpisodeKey, EpisodeScalars};
+use crate::rundir::{RunStatus, Totals};
+use crate::scenario::{ScenarioKind, Tier};
+use std::collections::HashMap;
+use std::sync::atomic::Ordering::Relaxed;
 /// Close the writer, record the invocation's totals and status in
 /// run.json, report the end, then either return the error that stopped the
 /// run or write the summary of every finished episode of the selection.

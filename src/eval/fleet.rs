@@ -2,8 +2,20 @@
 //! started in, and the reasons a run stops starting new ones (budgets,
 //! outages, truncation, Ctrl-C or `play`'s quit).
 
-use super::*;
-
+use super::events::{Event, Reporter, StopReason};
+use super::prepare::Prepared;
+use super::rollout::{EpisodeError, EpisodeResult, play};
+use super::store::WriteMsg;
+use super::{Ctx, EvalError, EvalOptions, interrupted, now_rfc3339, truncation};
+use crate::grading::Outcome;
+use crate::llm::LlmError;
+use crate::llm::profile::{rejected_parameter, remedy_for};
+use crate::rundir::SCHEMA_VERSION;
+use crate::rundir::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord};
+use crate::scenario::{ScenarioKind, Tier};
+use std::collections::HashMap;
+use std::sync::atomic::Ordering::Relaxed;
+use tokio::task::JoinSet;
 /// Consecutive infrastructure errors (no episode finishing in between)
 /// after which no new episode is started: each has already spent its whole
 /// retry schedule, so the endpoint is down and carrying on would only burn
@@ -331,5 +343,38 @@ impl Scheduler {
             unobserved[(self.next_unobserved - 1) % unobserved.len()]
         };
         self.cells[i].0.pop_front()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(scenario: ScenarioKind, seed: u64) -> EpisodeKey {
+        EpisodeKey { scenario, tier: Tier::T1, seed, rollout: 0 }
+    }
+
+    #[test]
+    #[allow(non_upper_case_globals)]
+    fn scheduler_interleaves_then_prefers_long_cells() {
+        const YieldStandoff: ScenarioKind = ScenarioKind::YieldStandoff;
+        const ContestedMerge: ScenarioKind = ScenarioKind::ContestedMerge;
+        let keys: Vec<EpisodeKey> =
+            [YieldStandoff, ContestedMerge].iter().flat_map(|&s| (0..4).map(move |i| key(s, i))).collect();
+        let mut s = Scheduler::new(keys);
+        let a = s.next_key().unwrap();
+        let b = s.next_key().unwrap();
+        assert_eq!((a.scenario, a.seed, b.scenario, b.seed), (YieldStandoff, 0, ContestedMerge, 0));
+        s.observe(a, 10);
+        // YieldStandoff is observed, ContestedMerge not yet: explore it.
+        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 1));
+        s.observe(b, 30);
+        // Both observed: the longer cell first, until it runs dry.
+        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 2));
+        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 3));
+        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 1));
+        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 2));
+        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 3));
+        assert_eq!(s.next_key(), None);
     }
 }

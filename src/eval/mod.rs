@@ -1,5 +1,5 @@
 //! `negotiator eval`: play episodes with a language model as the policy
-//! (SPEC section 7).
+//! (docs/eval.md).
 //!
 //! Layout: [`config`] (endpoints file), [`prompt`] (system prompt, history
 //! window), [`store`] (resume, the single writer), [`summary`]
@@ -33,31 +33,20 @@ pub mod store;
 pub mod summary;
 pub mod truncation;
 
-use crate::action::{parse_action, parse_belief};
-use crate::belief::{BeliefMetrics, BeliefTurn, Probe};
-use crate::episode::{Episode, EpisodeRecord, Outcome};
-use crate::llm::profile::{rejected_parameter, remedy_for};
-use crate::llm::{ChatMessage, ChatRequest, Client, ClientConfig, Completion, LlmError, Role, Usage};
-use crate::observation::render_scene;
-use crate::rundir::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord, RolloutRecord, TurnRecord};
-use crate::rundir::{
-    self, Endpoint, Invocation, RunConfig, RunInfo, RunStatus, SCHEMA_VERSION, Selection, Settings, Totals,
-};
-use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use crate::llm::{ChatMessage, Client, ClientConfig, Completion, LlmError};
+use crate::rundir::record::EpisodeKey;
+use crate::rundir::{self, Endpoint, RunConfig, RunStatus, Selection, Settings};
+use crate::scenario::{ScenarioKind, ScenarioSet};
 use events::Counters;
 use events::{Event, Reporter, StopReason};
-use finish::*;
-use fleet::*;
-use prepare::*;
-use prompt::History;
-use rollout::*;
-use std::collections::HashMap;
+use finish::finalize;
+use fleet::{Drove, drive};
+use prepare::{preflight, prepare};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
-use std::time::{Instant, SystemTime};
-use store::{StoreError, WriteMsg, Writer};
-use tokio::task::JoinSet;
+use std::time::SystemTime;
+use store::StoreError;
 
 /// Everything a run needs, validated.
 #[derive(Debug)]
@@ -271,34 +260,6 @@ pub async fn run(options: EvalOptions, reporter: &mut dyn Reporter) -> Result<Ru
 mod tests {
     use super::*;
     use std::time::Duration;
-
-    fn key(scenario: ScenarioKind, seed: u64) -> EpisodeKey {
-        EpisodeKey { scenario, tier: Tier::T1, seed, rollout: 0 }
-    }
-
-    #[test]
-    #[allow(non_upper_case_globals)]
-    fn scheduler_interleaves_then_prefers_long_cells() {
-        const YieldStandoff: ScenarioKind = ScenarioKind::YieldStandoff;
-        const ContestedMerge: ScenarioKind = ScenarioKind::ContestedMerge;
-        let keys: Vec<EpisodeKey> =
-            [YieldStandoff, ContestedMerge].iter().flat_map(|&s| (0..4).map(move |i| key(s, i))).collect();
-        let mut s = Scheduler::new(keys);
-        let a = s.next_key().unwrap();
-        let b = s.next_key().unwrap();
-        assert_eq!((a.scenario, a.seed, b.scenario, b.seed), (YieldStandoff, 0, ContestedMerge, 0));
-        s.observe(a, 10);
-        // YieldStandoff is observed, ContestedMerge not yet: explore it.
-        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 1));
-        s.observe(b, 30);
-        // Both observed: the longer cell first, until it runs dry.
-        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 2));
-        assert_eq!(s.next_key().unwrap(), key(ContestedMerge, 3));
-        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 1));
-        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 2));
-        assert_eq!(s.next_key().unwrap(), key(YieldStandoff, 3));
-        assert_eq!(s.next_key(), None);
-    }
 
     #[test]
     fn rfc3339_formats_known_instants() {

@@ -2,8 +2,22 @@
 //! refusing a changed configuration, run.json marked running, and the one
 //! preflight request.
 
-use super::*;
-
+use super::events::{Counters, Event, Reporter};
+use super::prompt::History;
+use super::store::{StoreError, Writer};
+use super::{Ctx, EvalError, EvalOptions, git_revision, now_rfc3339, prompt, store};
+use crate::episode::Episode;
+use crate::llm::{ChatMessage, ChatRequest, Client, LlmError, Role};
+use crate::observation::render_scene;
+use crate::rundir;
+use crate::rundir::record::{EpisodeKey, EpisodeScalars};
+use crate::rundir::{Invocation, RunInfo, RunStatus, SCHEMA_VERSION, Totals};
+use crate::scenario::ScenarioKind;
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::Ordering::Relaxed;
+use std::time::Instant;
 /// One request before the fleet starts: the first turn of the first
 /// episode still to play (that episode then uses the answer, so nothing is
 /// paid twice). A dead endpoint (connection refused, DNS, TLS), a wrong key

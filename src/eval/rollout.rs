@@ -1,8 +1,17 @@
 //! One episode played against the endpoint, turn by turn, and its record
 //! (the line of `rollouts.jsonl`).
 
-use super::*;
-
+use super::prompt::History;
+use super::{AtomicU32, Ctx, now_rfc3339, prompt};
+use crate::action::{parse_action, parse_belief};
+use crate::belief::{BeliefMetrics, BeliefTurn, Probe};
+use crate::episode::{Episode, EpisodeRecord};
+use crate::llm::{ChatMessage, ChatRequest, Completion, LlmError, Role, Usage};
+use crate::observation::render_scene;
+use crate::rundir::SCHEMA_VERSION;
+use crate::rundir::record::{EpisodeKey, EpisodeScalars, RolloutRecord, TurnRecord};
+use std::sync::atomic::Ordering::Relaxed;
+use std::time::Instant;
 /// A finished episode's summary scalars and its line, or why it did not finish.
 pub(super) type EpisodeResult = Result<(EpisodeScalars, String), EpisodeError>;
 

@@ -10,7 +10,7 @@ use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, cell_success_ci, mean};
 use serde::{Deserialize, Serialize};
 
-/// Percentile bootstrap resamples for the success interval (SPEC section 8).
+/// Percentile bootstrap resamples for the success interval (docs/report.md, "Statistics").
 pub const RESAMPLES: usize = 10_000;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

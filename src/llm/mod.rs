@@ -1,4 +1,4 @@
-//! Client for OpenAI-compatible chat-completions endpoints (SPEC section 7):
+//! Client for OpenAI-compatible chat-completions endpoints (docs/eval.md):
 //! tolerant wire types ([`types`]) and a retrying client ([`client`]).
 //!
 //! Failure policy: connect/read errors, timeouts, 408, 429, 5xx, and an

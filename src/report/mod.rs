@@ -35,7 +35,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use tables::{CostRow, Leaderboard, OutcomeRow, TierRow, tiers_label};
 
-/// The least number of bootstrap resamples accepted (SPEC section 8).
+/// The least number of bootstrap resamples accepted (docs/report.md, "Statistics").
 pub(crate) const MIN_RESAMPLES: usize = 10_000;
 
 #[derive(Debug, thiserror::Error)]

@@ -187,12 +187,6 @@ impl PlanAxes {
             None => format!("road user {}", k + 1).into(),
         }
     }
-
-    /// Whether every other road user's progress shares the ego's axis
-    /// (none is measured across the ego's road, as the pedestrian is).
-    pub fn shared_axis(&self) -> bool {
-        self.road_users.iter().all(|u| u.lateral.is_none())
-    }
 }
 
 /// A road user other than the ego, as figures and the drill-down name and
@@ -746,7 +740,6 @@ mod tests {
         }
         let merge = ScenarioKind::ContestedMerge.plan_axes();
         assert_eq!((merge.role(0), merge.role(1)), ("lane car".into(), "follower".into()));
-        assert!(merge.shared_axis() && !ScenarioKind::PedestrianFeint.plan_axes().shared_axis());
     }
 
     #[test]

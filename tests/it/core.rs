@@ -66,7 +66,7 @@ fn golden_vectors_pin_trajectories() {
         Action::new(Maneuver::NudgeForward, 0.5),
     ];
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.1656, 0.0000) v 2.2500 reward 0.991777 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (19.0149, 0.0000) v 4.0000 reward -0.179608 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (16.6149, 0.0000) v 3.5000 reward -0.179608 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 6.8806) v 0.0000 reward -0.152324 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
@@ -702,7 +702,7 @@ fn the_late_reader_line_catches_a_step_out_inside_the_experts_go_threshold() {
 /// The rule the paper's expert states, "wait for the committed signal (the
 /// other car actually stopping), then go", works against every yielder,
 /// also for a driver who sees the stop a decision late: a stopped yielder
-/// waits long enough (SPEC section 3).
+/// waits long enough (docs/scenarios.md).
 #[test]
 fn a_stopped_yielder_waits_for_a_driver_who_saw_it_stop() {
     use negotiator::observation::Scene;
@@ -891,4 +891,32 @@ fn the_caution_line_holds_cautious_readers_to_their_bar() {
     assert!(intersection.pass, "{}", intersection.figure);
     let crosswalk = validate::check_caution(&cells(ScenarioKind::PedestrianFeint, Tier::T2));
     assert!(!crosswalk.pass, "{}", crosswalk.figure);
+}
+
+/// The learned adversary's line passes on the built-in intersection's tier
+/// 3 and catches the hack it once found there: a yielder that, having taken
+/// its turn, pulled away at 4 m/s let a policy that outwaited it still
+/// finish on the last decision (a success with the wrong choice).
+#[test]
+fn learned_adversary_catches_an_outwaited_yielder_that_clears_in_time() {
+    let check = |set: &ScenarioSet| {
+        let (kind, tier) = (ScenarioKind::YieldStandoff, Tier::T3);
+        let cells = grid(set, &[kind], &[tier], 200);
+        let learned = validate::learned_adversaries(
+            set,
+            &[kind],
+            &[tier],
+            0..200,
+            negotiator::adversary::learned::DEFAULT_TRAINING,
+        );
+        validate::check_learned_adversary(&cells, &learned)
+    };
+    let honest = check(&ScenarioSet::default());
+    assert!(honest.pass, "{}", honest.figure);
+    let planted = check(&planted_set(
+        include_str!("../../scenarios/yield_standoff.toml"),
+        &[("go_speed_mps = 3.5 ", "go_speed_mps = 4.0 ")],
+    ));
+    assert!(!planted.pass, "{}", planted.figure);
+    assert!(planted.figure.contains("yield_standoff/t3"), "{}", planted.figure);
 }

@@ -141,3 +141,52 @@ fn every_module_has_a_doc_and_a_place_on_the_architecture_page() {
         .collect();
     assert!(unplaced.is_empty(), "not on docs/architecture.md: {unplaced:?}");
 }
+
+/// The code speaks of the project alone: no comment points at a
+/// specification outside the repository (its sections, by number); the
+/// contract a user needs is in docs/, and the code points there.
+#[test]
+fn no_file_cites_a_specification_outside_the_repository() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut stack: Vec<std::path::PathBuf> =
+        ["src", "tests", "examples", "benches", "scripts", "python/src", "python/tests", "docs"]
+            .iter()
+            .map(|d| root.join(d))
+            .collect();
+    stack.push(root.join("README.md"));
+    // Built from parts, so that this file does not match itself.
+    let needles = [["SPEC", " section"].concat(), ["SPEC", ".md"].concat()];
+    let mut cited = Vec::new();
+    while let Some(path) = stack.pop() {
+        if path.is_dir() {
+            stack.extend(std::fs::read_dir(&path).unwrap().map(|e| e.unwrap().path()));
+            continue;
+        }
+        let Ok(text) = std::fs::read_to_string(&path) else { continue };
+        for (i, line) in text.lines().enumerate() {
+            if needles.iter().any(|n| line.contains(n.as_str())) {
+                cited.push(format!("{}:{}", path.strip_prefix(root).unwrap().display(), i + 1));
+            }
+        }
+    }
+    assert!(cited.is_empty(), "cites a specification the repository does not hold: {cited:?}");
+}
+
+/// `eval`'s files import each name where it is used: no glob import of a
+/// sibling or parent outside the test modules, so that one namespace does
+/// not silently span the front end's files.
+#[test]
+fn eval_imports_each_name_where_it_is_used() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/eval");
+    let mut globs = Vec::new();
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let code = without_test_items(&std::fs::read_to_string(&path).unwrap());
+        for line in code.lines().map(str::trim) {
+            if line.starts_with("use ") && line.ends_with("::*;") {
+                globs.push(format!("{}: {line}", path.file_name().unwrap().to_string_lossy()));
+            }
+        }
+    }
+    assert!(globs.is_empty(), "glob imports in eval: {globs:?}");
+}

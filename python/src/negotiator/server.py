@@ -23,21 +23,30 @@ class EnvServerError(RuntimeError):
 
 
 class LocalServer:
-    """`negotiator env-server --port 0` as a child process."""
+    """`negotiator env-server --port 0` (or another serving command, such
+    as `serve --policy expert`) as a child process; `url` is the address
+    it announces on starting."""
 
-    def __init__(self, binary: str) -> None:
+    def __init__(self, binary: str, command: list[str] | None = None) -> None:
         self.process = subprocess.Popen(
-            [binary, "env-server", "--port", "0"],
+            [binary, *(command or ["env-server"]), "--port", "0"],
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
             text=True,
         )
         assert self.process.stdout is not None
-        line = self.process.stdout.readline().strip()
+        # The address is announced on one of the first lines (`serve` first
+        # says what it serves).
+        line = ""
+        for _ in range(5):
+            line = self.process.stdout.readline().strip()
+            if line.startswith(_LISTENING) or not line:
+                break
         if not line.startswith(_LISTENING):
             self.close()
-            raise EnvServerError(f"{binary} env-server did not start (first line: {line!r})")
-        self.url = line[len(_LISTENING) :]
+            what = " ".join(command or ["env-server"])
+            raise EnvServerError(f"{binary} {what} did not start (last line: {line!r})")
+        self.url = line[len(_LISTENING) :].split()[0]
 
     def close(self) -> None:
         if self.process.poll() is None:

@@ -1,0 +1,211 @@
+"""Train stable-baselines3's PPO on one benchmark cell, on CPU.
+
+    python -m negotiator_gym.train --scenario pedestrian_feint --tier 1 \\
+        --steps 200000 --seed 0 --out results/rl/pedestrian_feint-t1
+
+Writes, in OUT: `model.zip` and `vecnormalize.pkl` (the checkpoint, which
+`hack_check --checkpoint OUT` reads), `curve.csv` and `curve.png` (success,
+decision correctness and reward on held-out seeds against training steps)
+`command.txt` (the exact command) and `timing.json` (training's steps per
+second and the share of its wall time spent stepping the environments). Training episodes are seeds drawn
+from [2**32, 2**53); the curve plays seeds CURVE_SEED.. (never trained on).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from negotiator.server import LocalServer, binary
+from negotiator_gym.env import SCENARIOS, TIERS, NegotiatorEnv
+from negotiator_gym.evaluate import MODEL_FILE, NORMALIZE_FILE, play, rates
+
+CURVE_SEED = 10_000
+CURVE_FIELDS = ["steps", "success", "decision_correctness", "reward", "collision", "timeout", "wall_s"]
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m negotiator_gym.train", description=__doc__.split("\n")[0])
+    p.add_argument("--scenario", required=True, choices=SCENARIOS)
+    p.add_argument("--tier", required=True, type=int, choices=TIERS)
+    p.add_argument("--steps", required=True, type=int, help="environment steps (decisions) to train for")
+    p.add_argument("--seed", type=int, default=0, help="seeds PPO, the network and the drawn episodes")
+    p.add_argument("--out", required=True, type=Path)
+    p.add_argument("--base-url", help="an env-server to train on (default: start a local one)")
+    p.add_argument("--envs", type=int, default=8, help="environments stepped together (one session each)")
+    p.add_argument("--curve-points", type=int, default=20, help="evaluations along the run")
+    p.add_argument("--curve-episodes", type=int, default=100, help="held-out episodes per evaluation")
+    args = p.parse_args(argv)
+    if args.steps <= 0 or args.envs <= 0 or args.curve_points <= 0 or args.curve_episodes <= 0:
+        p.error("--steps, --envs, --curve-points and --curve-episodes must be positive")
+    return args
+
+
+def train(args: argparse.Namespace, base_url: str) -> None:
+    # Imported here so that `--help` and a bad flag answer at once.
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecNormalize
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
+
+    from negotiator_gym.vec import PipelinedVecEnv
+
+    # A network this small gains nothing from threads; one keeps the run on
+    # its own core (and several runs side by side).
+    torch.set_num_threads(1)
+
+    class Timed(VecEnvWrapper):
+        """Counts the wall time spent stepping and resetting the
+        environments (env-server and the client, auto-resets included)."""
+
+        def __init__(self, venv: VecEnv) -> None:
+            super().__init__(venv)
+            self.seconds = 0.0
+            self.steps = 0
+
+        def reset(self) -> Any:
+            t = time.perf_counter()
+            out = self.venv.reset()
+            self.seconds += time.perf_counter() - t
+            return out
+
+        def step_wait(self) -> VecEnvStepReturn:
+            t = time.perf_counter()
+            out = self.venv.step_wait()
+            self.seconds += time.perf_counter() - t
+            self.steps += self.num_envs
+            return out
+
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+
+    def make(rank: int) -> Any:
+        def thunk() -> NegotiatorEnv:
+            return NegotiatorEnv(scenario=args.scenario, tier=args.tier, base_url=base_url)
+
+        return thunk
+
+    timed = Timed(PipelinedVecEnv([make(i) for i in range(args.envs)]))
+    venv = VecNormalize(timed, norm_obs=True, norm_reward=False)
+    venv.seed(2**40 + args.seed * 1000)
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=256,
+        batch_size=256,
+        n_epochs=10,
+        gamma=0.99,
+        learning_rate=3e-4,
+        ent_coef=0.01,
+        seed=args.seed,
+        device="cpu",
+        verbose=0,
+    )
+    curve_seeds = range(CURVE_SEED, CURVE_SEED + args.curve_episodes)
+    every = max(1, args.steps // args.curve_points)
+    started = time.perf_counter()
+    rows: list[dict[str, float]] = []
+    curve_seconds = 0.0
+
+    def evaluate(steps: int) -> None:
+        nonlocal curve_seconds
+        t = time.perf_counter()
+        def act(observation: np.ndarray) -> int:
+            action, _ = model.predict(venv.normalize_obs(observation), deterministic=True)
+            return int(action)
+
+        r = rates(play(act, args.scenario, args.tier, curve_seeds, base_url))
+        row = {
+            "steps": steps,
+            "success": r.success,
+            "decision_correctness": r.decision_correctness,
+            "reward": r.reward,
+            "collision": r.collision,
+            "timeout": r.timeout,
+            "wall_s": round(time.perf_counter() - started, 1),
+        }
+        rows.append(row)
+        curve_seconds += time.perf_counter() - t
+        print(", ".join(f"{k} {v:.3f}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()), flush=True)
+
+    class Curve(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps // every > (self.num_timesteps - args.envs) // every:
+                evaluate(self.num_timesteps)
+            return True
+
+    evaluate(0)
+    curve_before = curve_seconds
+    learn_started = time.perf_counter()
+    model.learn(total_timesteps=args.steps, callback=Curve())
+    # The curve's evaluations run inside `learn` (in the callback) on their
+    # own environments; the share is of training alone.
+    train_seconds = time.perf_counter() - learn_started - (curve_seconds - curve_before)
+    if not rows or rows[-1]["steps"] != model.num_timesteps:
+        evaluate(model.num_timesteps)
+    timing = {
+        "train_seconds": round(train_seconds, 2),
+        "env_seconds": round(timed.seconds, 2),
+        "env_share": round(timed.seconds / train_seconds, 4),
+        "env_steps": timed.steps,
+        "steps_per_second": round(timed.steps / train_seconds, 1),
+    }
+    (out / "timing.json").write_text(json.dumps(timing, indent=2) + "\n")
+    print(f"training: {timing['steps_per_second']} steps/s, {100 * timing['env_share']:.1f}% of it in the environment")
+    model.save(out / MODEL_FILE)
+    venv.save(str(out / NORMALIZE_FILE))
+    venv.close()
+    with open(out / "curve.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=CURVE_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+    plot(rows, out / "curve.png", f"PPO on {args.scenario} tier {args.tier}")
+
+
+def plot(rows: list[dict[str, float]], path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = [r["steps"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 3.5), dpi=100)
+    for key, label in [("success", "success"), ("decision_correctness", "decision correctness"), ("reward", "reward")]:
+        ax.plot(steps, [r[key] for r in rows], label=label)
+    ax.set_xlabel("training steps (decisions)")
+    ax.set_ylim(-1.05, 1.05)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    args = parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "command.txt").write_text(
+        "python -m negotiator_gym.train " + " ".join(shlex.quote(a) for a in argv) + "\n"
+    )
+    local = None if args.base_url else LocalServer(binary())
+    try:
+        train(args, args.base_url or (local.url if local else ""))
+    finally:
+        if local is not None:
+            local.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,169 @@
+"""The Gymnasium environment against what we did not write (Gymnasium's and
+stable-baselines3's own environment checkers) and against the Rust episode
+loop: the same seeds give the same episodes, nothing shown before the end
+depends on the hidden disposition, and training and the reward-hacking
+regression run end to end.
+
+Needs NEGOTIATOR_BIN (the built binary) and NEGOTIATOR_EXAMPLES (the
+directory with the built `reference_rollouts` and `disposition_features`
+examples).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import negotiator_gym
+from negotiator.server import LocalServer, binary
+from negotiator_gym.env import FINAL_INFO, SCENARIOS, TIERS, NegotiatorEnv
+
+EXAMPLES = Path(os.environ.get("NEGOTIATOR_EXAMPLES", "target/release/examples"))
+# A schedule that gives way and then goes: (maneuver, strength, turns).
+SCHEDULE = [("proceed", 0.6, 4), ("yield", 0.3, 3), ("proceed", 1.0, 1)]
+SCHEDULE_TEXT = ",".join(f"{m}:{s}:{n}" for m, s, n in SCHEDULE)
+SEEDS = 8
+
+
+@pytest.fixture(scope="module")
+def env_server() -> Iterator[str]:
+    server = LocalServer(binary())
+    yield server.url
+    server.close()
+
+
+def schedule_indices(env: NegotiatorEnv) -> list[int]:
+    index = {(a["maneuver"], a["acceleration"]): i for i, a in enumerate(env.actions)}
+    return [index[(m, s)] for m, s, n in SCHEDULE for _ in range(n)]
+
+
+def example(name: str, *args: str) -> list[dict[str, Any]]:
+    out = subprocess.run([str(EXAMPLES / name), *args], check=True, capture_output=True, text=True).stdout
+    return [json.loads(line) for line in out.splitlines() if line.strip()]
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+@pytest.mark.parametrize("tier", TIERS)
+def test_the_checkers_we_did_not_write_pass(env_server: str, scenario: str, tier: int) -> None:
+    env = gym.make(negotiator_gym.ENV_ID, scenario=scenario, tier=tier, base_url=env_server)
+    try:
+        check_env(env.unwrapped, skip_render_check=False)
+        sb3_check_env(env.unwrapped, warn=True)
+    finally:
+        env.close()
+
+
+def test_the_module_colon_id_form_needs_no_import(env_server: str) -> None:
+    code = (
+        "import gymnasium as gym, sys; "
+        f"env = gym.make('negotiator_gym:{negotiator_gym.ENV_ID}', base_url='{env_server}'); "
+        "obs, info = env.reset(seed=1); print(obs.shape[0], info['seed']); env.close()"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout.split()
+    assert out[1] == "1" and int(out[0]) > 0
+
+
+def test_seeds_play_the_rust_loops_episodes(env_server: str) -> None:
+    reference = {(r["scenario"], r["tier"], r["seed"]): r for r in example("reference_rollouts", SCHEDULE_TEXT, str(SEEDS))}
+    for scenario in SCENARIOS:
+        for tier in TIERS:
+            env = NegotiatorEnv(scenario=scenario, tier=tier, base_url=env_server)
+            plan = schedule_indices(env)
+            for seed in range(SEEDS):
+                _, info = env.reset(seed=seed)
+                assert info == {"seed": seed}
+                done, turns, total = False, 0, 0.0
+                while not done:
+                    _, reward, done, truncated, info = env.step(plan[min(turns, len(plan) - 1)])
+                    assert not truncated
+                    total += float(reward)
+                    turns += 1
+                    if not done:
+                        assert info == {}, "nothing but the end's grades in info"
+                want = reference[(scenario, tier, seed)]
+                assert (info["outcome"], turns, info["disposition"]) == (want["outcome"], want["decisions"], want["disposition"])
+                assert total == pytest.approx(want["reward"], abs=1e-12)
+                assert set(FINAL_INFO) <= set(info)
+            env.close()
+
+
+def test_nothing_before_the_evidence_depends_on_the_disposition(env_server: str) -> None:
+    """The both-dispositions test for this surface: every observation the
+    environment gives before the evidence turn equals the feature vector
+    the Rust loop computes under *either* disposition of that seed."""
+    compared = 0
+    for row in example("disposition_features", SCHEDULE_TEXT, str(SEEDS)):
+        env = NegotiatorEnv(scenario=row["scenario"], tier=row["tier"], base_url=env_server)
+        plan = schedule_indices(env)
+        a, b = (np.asarray(f, dtype=np.float32) for f in row["features"])
+        first_evidence = min((t for t in row["evidence_turns"] if t is not None), default=len(a) + 1)
+        obs, _ = env.reset(seed=row["seed"])
+        turn = 1
+        while turn < first_evidence and turn <= min(len(a), len(b)):
+            np.testing.assert_array_equal(a[turn - 1], b[turn - 1], err_msg=f"{row['scenario']} t{row['tier']} seed {row['seed']} turn {turn}")
+            np.testing.assert_array_equal(obs, a[turn - 1])
+            compared += 1
+            obs, _, done, _, _ = env.step(plan[min(turn - 1, len(plan) - 1)])
+            turn += 1
+            if done:
+                break
+        env.close()
+    assert compared > 100
+
+
+def test_a_local_server_starts_and_stops_with_the_environment() -> None:
+    env = NegotiatorEnv(scenario="contested_merge", tier=2)
+    assert env._local is not None
+    process = env._local.process
+    env.reset(seed=0)
+    env.close()
+    assert process.poll() is not None
+
+
+def test_bad_arguments_are_refused_with_the_choices(env_server: str) -> None:
+    with pytest.raises(ValueError, match="unknown scenario 'roundabout'"):
+        NegotiatorEnv(scenario="roundabout", base_url=env_server)
+    with pytest.raises(ValueError, match="unknown tier 4"):
+        NegotiatorEnv(tier=4, base_url=env_server)
+
+
+def test_render_shows_the_scene_text(env_server: str) -> None:
+    env = NegotiatorEnv(scenario="pedestrian_feint", tier=1, base_url=env_server, render_mode="ansi")
+    env.reset(seed=2)
+    text = env.render()
+    assert text is not None and "crosswalk" in text
+    env.close()
+
+
+def test_training_and_the_hack_check_run_end_to_end(env_server: str, tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    from negotiator_gym import hack_check, train
+
+    assert train.main(["--scenario", "yield_standoff", "--tier", "1", "--steps", "512", "--out", str(out),
+                       "--base-url", env_server, "--envs", "2", "--curve-points", "1", "--curve-episodes", "4"]) == 0  # fmt: skip
+    for name in ["model.zip", "vecnormalize.pkl", "curve.csv", "curve.png", "command.txt"]:
+        assert (out / name).is_file(), name
+    assert (out / "command.txt").read_text().startswith("python -m negotiator_gym.train --scenario yield_standoff")
+    run = subprocess.run(
+        [sys.executable, "-m", "negotiator_gym.hack_check", "--checkpoint", str(out), "--scenario", "yield_standoff",
+         "--tier", "1", "-n", "6", "--base-url", env_server, "--json"],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    entry = json.loads(run.stdout)
+    assert run.returncode == (0 if entry["no_hack"] and entry["reads"] else 1)
+    for key in ["success", "collision", "timeout", "decision_correctness", "hack_rate", "expert_hack_rate",
+                "masked_success", "expert_success"]:  # fmt: skip
+        assert 0.0 <= entry[key] <= 1.0, key
+    assert entry["n"] == 6 and entry["expert_success"] == 1.0
+    assert hack_check is not None
