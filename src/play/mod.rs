@@ -7,8 +7,8 @@
 //! interrupted episode is replayed from its start), run.json, the summary
 //! and `report` are `eval`'s; the episode is the same `Episode`. This
 //! module only owns the person's side: the screen ([`screen`], ratatui on
-//! crossterm), the line mode for a standard input that is not a terminal,
-//! and the keys ([`input`]).
+//! crossterm) and its loop ([`terminal`]), the line mode for a standard
+//! input that is not a terminal, and the keys ([`input`]).
 //!
 //! Nothing hidden is shown: each turn's screen is the scene text the model
 //! receives (the instructions once, on the help screen), and an episode's
@@ -22,6 +22,7 @@
 mod endpoint;
 mod input;
 mod screen;
+mod terminal;
 
 use crate::episode::{EpisodeSpec, Outcome, draw_disposition};
 use crate::eval::events::{Event, Reporter};
@@ -30,11 +31,9 @@ use crate::rundir::Selection;
 use crate::rundir::record::EpisodeKey;
 use endpoint::{EndpointState, Prompt, ToScreen};
 use input::Draft;
-use screen::Screen;
 use std::io::{BufRead, Write};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
-use std::time::{Duration, Instant};
 
 /// Seeds at or above this are never benchmark seeds (benchmark runs use
 /// small seeds from 0): `--practice` draws from above it.
@@ -117,7 +116,7 @@ pub fn run(options: PlayOptions) -> anyhow::Result<RunOutcome> {
     };
     drop(to_screen);
     let side = Side { from_run, interrupt, feedback: feedback || practice, plan_view, turn_seconds, name };
-    let played = if line_mode { side.lines() } else { side.terminal() };
+    let played = if line_mode { side.lines() } else { terminal::run(&side) };
     let outcome = handle.join().map_err(|_| anyhow::anyhow!("the run's thread panicked"))?;
     played?;
     let outcome = outcome?;
@@ -192,145 +191,6 @@ impl Side {
             }
         }
         Ok(())
-    }
-
-    /// The terminal interface.
-    fn terminal(self) -> anyhow::Result<()> {
-        use ratatui::crossterm::event::{self, Event as Term, KeyCode, KeyEventKind, KeyModifiers};
-        let mut terminal = ratatui::try_init()?;
-        let mut s = Screen {
-            name: self.name.clone(),
-            progress: String::new(),
-            help: true,
-            help_text: format!("{}\n\nKeys\n{}", crate::eval::prompt::SYSTEM_PROMPT, HELP_KEYS),
-            ..Screen::default()
-        };
-        let mut pending: Option<Prompt> = None;
-        let mut queued: std::collections::VecDeque<Prompt> = Default::default();
-        let (mut selected, mut played) = (0usize, 0usize);
-        let mut quitting = false;
-        let mut deadline: Option<Instant> = None;
-        // An unanswered turn stays open after quitting (see `lines`).
-        let mut unanswered = Vec::new();
-        let result = (|| -> anyhow::Result<()> {
-            loop {
-                // Messages from the run.
-                loop {
-                    match self.from_run.try_recv() {
-                        Ok(ToScreen::Prompt(p)) => queued.push_back(p),
-                        Ok(ToScreen::TimedOut { held }) => {
-                            pending = None;
-                            s.scene = None;
-                            s.flash = Some(format!("time ran out: sent {held}"));
-                        }
-                        Ok(ToScreen::Planned { selected: n, finished }) => {
-                            selected = n;
-                            played = finished;
-                        }
-                        Ok(ToScreen::EpisodeOver { key, outcome, reward }) => {
-                            played += 1;
-                            s.notice = Some(episode_over(&key, outcome, reward, self.feedback));
-                        }
-                        Ok(ToScreen::RunOver) | Err(std::sync::mpsc::TryRecvError::Disconnected) => return Ok(()),
-                        Err(std::sync::mpsc::TryRecvError::Empty) => break,
-                    }
-                }
-                if pending.is_none()
-                    && s.notice.is_none()
-                    && !quitting
-                    && let Some(mut p) = queued.pop_front()
-                {
-                    s.plan = if self.plan_view { crate::observation::parse_scene(&p.scene).ok() } else { None };
-                    s.scene = Some(p.scene.clone());
-                    s.scroll = 0;
-                    if let Some(shown) = p.shown.take() {
-                        let _ = shown.send(());
-                    }
-                    deadline = self.turn_seconds.map(|t| Instant::now() + Duration::from_secs_f64(t));
-                    pending = Some(p);
-                }
-                s.progress = if quitting {
-                    "saving...".to_string()
-                } else {
-                    format!("episode {} of {selected}", (played + 1).min(selected.max(1)))
-                };
-                s.clock = match (self.turn_seconds, deadline.filter(|_| pending.is_some())) {
-                    (Some(_), Some(d)) => {
-                        Some(format!("{:.0} s left", d.saturating_duration_since(Instant::now()).as_secs_f64().ceil()))
-                    }
-                    (Some(t), None) => Some(format!("{t} s per turn")),
-                    _ => None,
-                };
-                terminal.draw(|f| screen::draw(f, &s))?;
-                if !event::poll(Duration::from_millis(100))? {
-                    continue;
-                }
-                let Term::Key(key) = event::read()? else { continue };
-                if key.kind != KeyEventKind::Press {
-                    continue;
-                }
-                let ctrl_c = key.modifiers.contains(KeyModifiers::CONTROL) && key.code == KeyCode::Char('c');
-                if let Some(t) = s.typing.as_mut() {
-                    match key.code {
-                        KeyCode::Esc => s.typing = None,
-                        KeyCode::Backspace => {
-                            t.pop();
-                        }
-                        KeyCode::Enter => {
-                            let text = s.typing.take().unwrap_or_default();
-                            if let Some(p) = pending.take() {
-                                let _ = p.answer.send(text);
-                                s.flash = None;
-                            }
-                        }
-                        KeyCode::Char(c) if !ctrl_c => t.push(c),
-                        _ => {}
-                    }
-                    if !ctrl_c {
-                        continue;
-                    }
-                }
-                match key.code {
-                    _ if ctrl_c || key.code == KeyCode::Char('q') => {
-                        quitting = true;
-                        unanswered.extend(pending.take());
-                        self.interrupt.notify_one();
-                    }
-                    KeyCode::Char('?') => {
-                        s.help = !s.help;
-                        s.scroll = 0;
-                    }
-                    KeyCode::Esc if s.help => s.help = false,
-                    KeyCode::Enter if s.help => s.help = false,
-                    KeyCode::Enter if s.notice.is_some() => {
-                        s.notice = None;
-                        s.scene = None;
-                    }
-                    KeyCode::Enter => {
-                        if let Some(p) = pending.take() {
-                            let _ = p.answer.send(s.draft.reply());
-                            s.scene = None;
-                            s.flash = None;
-                        }
-                    }
-                    KeyCode::Char('{') => s.typing = Some("{".to_string()),
-                    KeyCode::Up | KeyCode::Right => s.draft.adjust(0.1),
-                    KeyCode::Down | KeyCode::Left => s.draft.adjust(-0.1),
-                    KeyCode::PageDown => s.scroll = s.scroll.saturating_add(5),
-                    KeyCode::PageUp => s.scroll = s.scroll.saturating_sub(5),
-                    KeyCode::Char(c) => {
-                        if let Some(m) = input::maneuver_key(c) {
-                            s.draft.maneuver = m;
-                        } else if let Some(v) = input::strength_key(c) {
-                            s.draft.strength = v;
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        })();
-        ratatui::restore();
-        result
     }
 }
 
