@@ -154,6 +154,21 @@ const DOOR_SPEED_GAIN: f64 = 2.0;
 /// 1.5 m/s the close came half a second later, and a reader one decision
 /// late could no longer drop back behind the platoon in time (0.84).
 const BAIT_EASE_MPS: f64 = 1.0;
+/// A car physically in the lane ahead of the lane car caps its
+/// acceleration once it would hold it below this share of its comfortable
+/// acceleration (the IDM's `accel`).
+const LEADER_RESPECT_SHARE: f64 = 0.5;
+/// A car making room covers an ego that hangs back while it is at most
+/// this much faster than the ego (m/s): level with it, at its speed.
+const COVERING_MARGIN_MPS: f64 = 1.5;
+/// A tier-3 car making room shows itself by slowing this far below the
+/// bluffer's floor (m/s).
+const SHOWN_BELOW_FLOOR_MPS: f64 = 0.5;
+/// The ego counts as ahead of the lane car (taking a bluffer's bait)
+/// while the lane car's centre is less than this far ahead of the ego's (m).
+const EGO_AHEAD_M: f64 = 1.0;
+/// A bluffer closing the gap brakes at most this hard (m/s^2).
+const CLOSE_BRAKE_MPS2: f64 = 3.0;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -569,9 +584,10 @@ impl MergeWorld {
         track_speed(lane.v, target, self.params.idm.accel, decel, dt)
     }
 
-    /// A bluffer closing the gap: back to level with the ego, hard; then
-    /// holding the lane.
-    fn close_accel(&mut self, ego: &Body, dt: f64) -> f64 {
+    /// A bluffer closing the gap: back to level with the ego, hard. Once
+    /// level (or the ego is in the lane) it switches the phase to holding
+    /// the lane, hence `&mut self`.
+    fn close_until_level(&mut self, ego: &Body, dt: f64) -> f64 {
         let lane = self.lane_car;
         let rel = lane.s - ego.s;
         if rel > -1.0 || self.ego_in_lane(ego) {
@@ -579,7 +595,7 @@ impl MergeWorld {
         }
         let target =
             (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.cruise + self.params.lane.deny_extra_mps);
-        track_speed(lane.v, target, self.params.tier3.close_accel_mps2, 3.0, dt)
+        track_speed(lane.v, target, self.params.tier3.close_accel_mps2, CLOSE_BRAKE_MPS2, dt)
     }
 
     fn lane_car_accel(&mut self, ego: &Body, t: f64, dt: f64) -> f64 {
@@ -588,21 +604,21 @@ impl MergeWorld {
         let in_lane_leader = self.leader(&lane, None, ego);
         // A car physically in the lane ahead is always respected.
         let cap = idm.accel(lane.v, f64::INFINITY, in_lane_leader);
-        let respect = |a: f64| if cap < 0.5 * idm.accel { a.min(cap) } else { a };
+        let respect = |a: f64| if cap < LEADER_RESPECT_SHARE * idm.accel { a.min(cap) } else { a };
         let makes_room = self.disposition == Disposition::MakesRoom;
         let floor = self.params.tier3.floor_fraction * self.cruise;
         let pace = self.ego_keeps_pace(ego, t);
         if makes_room && matches!(self.phase, Phase::Open { .. }) {
             // Tier 3: the car making room shows itself by slowing below the
             // bluffer's floor; until then it does not give up either.
-            let shown = self.tier != Tier::T3 || lane.v < floor - 0.5;
+            let shown = self.tier != Tier::T3 || lane.v < floor - SHOWN_BELOW_FLOOR_MPS;
             if shown {
                 self.revealed = true;
             }
             // Patience runs while the car covers an ego that hangs back
             // (level with it at its speed): a car that could not stop as
             // hard as the ego waits first, then pulls away from there.
-            let covering = lane.v <= ego.v + 1.5;
+            let covering = lane.v <= ego.v + COVERING_MARGIN_MPS;
             // At t = 0 the ego's state is where it started, not a choice.
             if !pace && t > 0.0 {
                 self.patience.hang_back(dt);
@@ -616,7 +632,7 @@ impl MergeWorld {
         match self.phase {
             Phase::Hold => respect(self.hold_accel(self.lane_car, ego, dt)),
             Phase::TakeTurn => respect(self.take_turn_accel(ego, dt)),
-            Phase::Close => respect(self.close_accel(ego, dt)),
+            Phase::Close => respect(self.close_until_level(ego, dt)),
             Phase::Open { floor_since } => {
                 if makes_room {
                     let floor = if self.tier == Tier::T3 && !self.revealed { floor } else { 0.0 };
@@ -635,12 +651,12 @@ impl MergeWorld {
                 let ego_commits = approach.to_conflict > 0.0
                     && bait_shown
                     && ego.a > PACE_MIN_ACCEL
-                    && lane.s < ego.s + 1.0
+                    && lane.s < ego.s + EGO_AHEAD_M
                     && approach.eta(v_max) < self.params.tier3.commit_horizon_s;
                 if ego_commits {
                     self.revealed = true;
                     self.phase = Phase::Close;
-                    return respect(self.close_accel(ego, dt));
+                    return respect(self.close_until_level(ego, dt));
                 }
                 if lane.v <= floor + 1e-9 {
                     let since = floor_since.unwrap_or(t);
