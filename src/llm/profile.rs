@@ -159,6 +159,42 @@ impl RequestProfile {
     }
 }
 
+/// The completion-token limit a request carries, decided here alone: a
+/// flag's spelling wins over the configuration's; a null in either removes
+/// the limit altogether; nothing set means the profile's figure. A thinking
+/// budget is spent inside the limit: when nothing set the limit, the
+/// profile's figure is room for the answer on top of the budget, and with
+/// no figure the budget gets 1024 tokens of answer.
+fn token_limit(
+    profile: &RequestProfile,
+    configured: &Map<String, Value>,
+    flags: &Map<String, Value>,
+    effort: Option<&str>,
+) -> Result<Option<u64>, ProfileError> {
+    fn pick(m: &Map<String, Value>) -> Option<&Value> {
+        TOKEN_LIMIT_FIELDS.iter().find_map(|f| m.get(*f).filter(|v| !v.is_null()))
+    }
+    let removed =
+        [flags, configured].iter().any(|m| TOKEN_LIMIT_FIELDS.iter().any(|f| m.get(*f).is_some_and(Value::is_null)));
+    let set = pick(flags).or_else(|| pick(configured));
+    let mut limit = match set {
+        _ if removed && pick(flags).is_none() => None,
+        Some(v) => Some(v.as_u64().filter(|n| *n > 0).ok_or_else(|| ProfileError::BadLimit(v.to_string()))?),
+        None => profile.max_tokens,
+    };
+    let budget = effort
+        .filter(|_| profile.reasoning == ReasoningStyle::ThinkingBudget)
+        .and_then(|e| profile.thinking_budgets.get(e));
+    if let Some(b) = budget {
+        match limit.as_mut() {
+            Some(l) if set.is_none() => *l += b,
+            Some(_) => {}
+            None => limit = Some(b + 1024),
+        }
+    }
+    Ok(limit)
+}
+
 /// Build the body parameters.
 ///
 /// `configured`: endpoint and alias defaults, merged. `flags`: what the
@@ -191,38 +227,10 @@ pub fn build_params(
     let flagged = |k: &str| from_flags.contains(&k);
     let mut out = BuiltParams::default();
 
-    // Token limit: a flag's spelling wins over the configuration's; a null
-    // in either removes the limit altogether.
-    let limit_removed = TOKEN_LIMIT_FIELDS.iter().any(|f| flags.get(*f).is_some_and(Value::is_null))
-        || TOKEN_LIMIT_FIELDS.iter().any(|f| configured.get(*f).is_some_and(Value::is_null));
-    fn pick(m: &Map<String, Value>) -> Option<&Value> {
-        TOKEN_LIMIT_FIELDS.iter().find_map(|f| m.get(*f).filter(|v| !v.is_null()))
-    }
-    let limit_value = pick(flags).or_else(|| pick(configured)).cloned();
     for f in TOKEN_LIMIT_FIELDS {
         merged.remove(*f);
     }
-    let limit_set = limit_value.is_some();
-    let mut limit = if limit_removed && pick(flags).is_none() {
-        None
-    } else {
-        match limit_value {
-            Some(v) => Some(v.as_u64().filter(|n| *n > 0).ok_or_else(|| ProfileError::BadLimit(v.to_string()))?),
-            None => profile.max_tokens,
-        }
-    };
-    // A thinking budget is spent inside the limit: when nothing set the
-    // limit, the profile's figure is room for the answer on top of it.
-    if let (Some(e), ReasoningStyle::ThinkingBudget, false) = (effort, profile.reasoning, limit_set)
-        && let (Some(l), Some(b)) = (limit.as_mut(), profile.thinking_budgets.get(e))
-    {
-        *l += b;
-    }
-    if let (Some(e), ReasoningStyle::ThinkingBudget, None) = (effort, profile.reasoning, limit)
-        && let Some(b) = profile.thinking_budgets.get(e)
-    {
-        limit = Some(b + 1024);
-    }
+    let limit = token_limit(profile, configured, flags, effort)?;
 
     for (k, v) in merged {
         let unwanted = (SAMPLING_FIELDS.contains(&k.as_str()) && !profile.accepts_sampling(&k))
