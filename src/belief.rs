@@ -347,7 +347,7 @@ mod tests {
     #[test]
     fn every_belief_prompt_is_neutral_and_a_leak_is_caught() {
         for kind in ScenarioKind::ALL {
-            let prompt = format!("{}{}", crate::eval::prompt::SYSTEM_PROMPT, prompt_paragraph(kind));
+            let prompt = format!("{}{}", crate::instructions::SYSTEM_PROMPT, prompt_paragraph(kind));
             assert_eq!(check_neutral(&prompt), Ok(()), "{kind}");
         }
         let leaky = "your probability that the other car is a yielder rather than committed";

@@ -616,6 +616,22 @@ impl EpisodeRecord {
     }
 }
 
+/// The evidence-timing metrics have one home, here beside
+/// [`EvidenceTiming`]: `eval`'s summary and `report` both call them.
+/// Share of the episodes with a commitment that committed before the
+/// evidence turn (NaN when none committed).
+pub fn guess_rate(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
+    let guesses: Vec<f64> = timings.filter_map(|t| t.guessed()).map(|g| f64::from(u8::from(g))).collect();
+    crate::stats::mean(&guesses)
+}
+
+/// Mean turns from the evidence to the commitment over the episodes that
+/// committed at or after it (NaN when none did).
+pub fn evidence_lag(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
+    let lags: Vec<f64> = timings.filter_map(|t| t.lag()).map(f64::from).collect();
+    crate::stats::mean(&lags)
+}
+
 /// Play one whole episode with an in-process policy.
 pub fn run_episode(
     config: &ScenarioConfig,

@@ -8,7 +8,9 @@
 //! - [`scenario`]: the three worlds, their tiers and TOML parameters;
 //! - [`observation`]: the public view, its text renderer and parser;
 //! - [`action`]: the action and its protective parser;
-//! - [`policy`]: the scripted baselines;
+//! - [`policy`]: the scripted baselines, and a scripted policy's reply to
+//!   a scene text as a model would give it;
+//! - [`instructions`]: the system prompt every front end gives a player;
 //! - [`episode`]: the environment loop;
 //! - [`features`]: the observation as a fixed-length vector and the discrete
 //!   action set, for policies that do not read text (env-server's
@@ -32,6 +34,7 @@
 //! - `llm`: the OpenAI-compatible chat client;
 //! - `eval`: `eval`, a language model as the policy;
 //! - `serve`: a scripted policy behind an OpenAI-compatible endpoint;
+//! - `shutdown`: the signal `serve` and `envserver` stop on;
 //! - `envserver`: the benchmark as an OpenEnv environment (HTTP and
 //!   WebSocket) for trainers and other harnesses;
 //! - `play`: a person drives the episodes in the terminal (`eval`
@@ -54,6 +57,7 @@ pub mod export;
 pub mod features;
 pub(crate) mod grading;
 pub(crate) mod hash;
+pub mod instructions;
 pub(crate) mod llm;
 pub(crate) mod noise;
 pub mod observation;
@@ -66,6 +70,7 @@ pub(crate) mod rng;
 pub mod rundir;
 pub mod scenario;
 pub(crate) mod serve;
+pub(crate) mod shutdown;
 pub(crate) mod sim;
 pub mod stats;
 pub mod validate;

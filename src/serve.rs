@@ -34,12 +34,13 @@
 //! null content, an unknown maneuver, an out-of-range number, an unclosed
 //! `<think>`): driving on a parse error, not an infrastructure failure.
 
-use crate::action::Action;
 use crate::episode::Episode;
 use crate::hash::{fnv1a64, splitmix64, unit_f64};
 use crate::observation::{parse_scene, render_scene};
 use crate::policy::PolicyKind;
+use crate::policy::reply::{SceneRead, action_json, answer_with_belief};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use crate::shutdown::shutdown;
 use axum::Router;
 use axum::body::{Body, Bytes};
 use axum::extract::State;
@@ -226,69 +227,6 @@ fn stream_events(reply: &Value, include_usage: bool) -> String {
     out
 }
 
-/// The scripted model's answer to a scene text.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Answer {
-    pub(crate) action: Action,
-    /// The `reasoning` field of the reply.
-    pub(crate) reasoning: String,
-    /// Whether the scene text could be read (else the action is the
-    /// conservative stop); counted in [`ServeStats::unparseable_scenes`].
-    pub(crate) scene: SceneRead,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum SceneRead {
-    Readable,
-    Unreadable,
-}
-
-pub(crate) fn answer(policy: PolicyKind, seed: u64, scene_text: &str) -> Answer {
-    answer_with_belief(policy, seed, &[], scene_text, None).0
-}
-
-/// The answer and, when probing, the stated belief (`ideal`: the ideal
-/// observer's belief for this conversation, None when its episode is not
-/// known; the expert then states 0.5). `earlier` are the conversation's
-/// earlier scenes: a policy with memory (the late expert) is shown them
-/// first, in order, so it answers as it would have in one episode.
-fn answer_with_belief(
-    policy: PolicyKind,
-    seed: u64,
-    earlier: &[&str],
-    scene_text: &str,
-    ideal: Option<f64>,
-) -> (Answer, f64) {
-    match parse_scene(scene_text) {
-        Ok(obs) => {
-            let mut p = policy.build();
-            p.reset(splitmix64(seed ^ fnv1a64(scene_text)));
-            let memory = if p.remembers() { earlier } else { &[] };
-            for earlier in memory.iter().filter_map(|text| parse_scene(text).ok()) {
-                if earlier.scenario() == obs.scenario() && earlier.turn < obs.turn {
-                    p.act(&earlier);
-                }
-            }
-            let action = p.act(&obs);
-            let belief = p.belief(&obs, &action, ideal.unwrap_or(0.5));
-            let answer = Answer {
-                action,
-                reasoning: format!("{policy} policy at turn {} of {}", obs.turn, obs.turn_budget),
-                scene: SceneRead::Readable,
-            };
-            (answer, belief)
-        }
-        Err(e) => {
-            let answer = Answer {
-                action: Action::CONSERVATIVE,
-                reasoning: format!("no readable scene ({e}); stopping"),
-                scene: SceneRead::Unreadable,
-            };
-            (answer, 0.5)
-        }
-    }
-}
-
 /// Finds the episode behind a conversation, so that `serve` can state the
 /// ideal observer's belief (privileged: it needs the seed) from the text
 /// alone. The first scene of every (scenario, tier, seed) in a seed range,
@@ -348,21 +286,6 @@ impl EpisodeIndex {
     }
 }
 
-/// The JSON reply content for an action. Numbers are printed in full
-/// (shortest round-trip form), so the client executes exactly this action.
-pub(crate) fn action_content(action: &Action, reasoning: &str) -> String {
-    action_json(action, reasoning).to_string()
-}
-
-fn action_json(action: &Action, reasoning: &str) -> Value {
-    json!({
-        "reasoning": reasoning,
-        "acceleration": action.acceleration,
-        "steering": action.steering,
-        "maneuver": action.maneuver.name(),
-    })
-}
-
 /// The answer to a whole conversation: the policy's action for the last
 /// scene, with its belief added when probing.
 fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRead) {
@@ -376,7 +299,7 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     let earlier: Vec<&str> = scenes[..scenes.len().saturating_sub(1)].iter().map(String::as_str).collect();
     let Some(index) = &cfg.belief else {
         let (answer, _) = answer_with_belief(cfg.policy, cfg.seed, &earlier, scene, None);
-        return (action_content(&answer.action, &answer.reasoning), answer.scene);
+        return (action_json(&answer.action, &answer.reasoning).to_string(), answer.scene);
     };
     let replies = text("assistant");
     let ideal = index.ideal_belief(
@@ -522,27 +445,6 @@ pub(crate) async fn serve(listener: tokio::net::TcpListener, config: ServeConfig
     Ok(state)
 }
 
-pub(crate) async fn shutdown() {
-    #[cfg(unix)]
-    {
-        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(s) => s,
-            Err(_) => {
-                let _ = tokio::signal::ctrl_c().await;
-                return;
-            }
-        };
-        tokio::select! {
-            _ = tokio::signal::ctrl_c() => {}
-            _ = term.recv() => {}
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = tokio::signal::ctrl_c().await;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -566,32 +468,6 @@ mod tests {
         assert_ne!(a, (0..100).map(|i| draw(8, i, 1)).collect::<Vec<_>>());
         let hits = (0..10_000).filter(|i| draw(1, *i, 1) < 0.2).count();
         assert!((1800..2200).contains(&hits), "{hits}");
-    }
-
-    #[test]
-    fn unreadable_scene_gets_the_conservative_stop() {
-        let a = answer(PolicyKind::Expert, 0, "hello");
-        assert_eq!((a.action, a.scene), (Action::CONSERVATIVE, SceneRead::Unreadable));
-        assert!(a.reasoning.starts_with("no readable scene"), "{}", a.reasoning);
-    }
-
-    #[test]
-    fn the_answer_round_trips_through_the_action_parser() {
-        use crate::episode::Episode;
-        use crate::scenario::{ScenarioConfig, ScenarioKind, Tier};
-        for kind in ScenarioKind::ALL {
-            let ep = Episode::new(&ScenarioConfig::builtin(kind), Tier::T1, 3);
-            let text = crate::observation::render_scene(ep.observation());
-            for policy in PolicyKind::ALL {
-                let a = answer(policy, 5, &text);
-                assert_eq!(a.scene, SceneRead::Readable);
-                let parsed = crate::action::parse_action(&action_content(&a.action, &a.reasoning));
-                assert!(parsed.is_clean(), "{policy}: {:?}", parsed.errors);
-                assert_eq!(parsed.action, a.action);
-                // Same scene, same answer (random included).
-                assert_eq!(answer(policy, 5, &text), a);
-            }
-        }
     }
 
     #[test]

@@ -11,7 +11,7 @@
 
 use super::{RefusedError, exit, parse_list, usage};
 use crate::belief::Probe;
-use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias, sanitize_name};
+use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias};
 use crate::eval::events::{Reporter, StopReason};
 use crate::eval::prices::Prices;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
@@ -19,6 +19,7 @@ use crate::eval::{EvalError, EvalOptions};
 use crate::hash::fnv1a64_hex;
 use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
+use crate::rundir::sanitize_name;
 use crate::rundir::{HistoryWindow, Pricing, RunConfig, Selection, Shard};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use reqwest::header::{HeaderMap, HeaderName, HeaderValue};

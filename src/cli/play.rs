@@ -93,7 +93,7 @@ impl PlayArgs {
         let run_dir = if self.practice {
             std::env::temp_dir().join(format!("negotiator-practice-{}", std::process::id()))
         } else {
-            let model = crate::eval::config::sanitize_name(&config.model);
+            let model = crate::rundir::sanitize_name(&config.model);
             self.output.join(format!("{model}-{}", &config.hash()[..8]))
         };
         let eval = EvalOptions {

@@ -759,11 +759,15 @@ pub(crate) async fn run(listener: tokio::net::TcpListener, state: Arc<EnvServerS
         shutdown_grace: c.shutdown_grace,
     };
     let open = state.clone();
-    let served =
-        net::serve(listener, router(state.clone()), limits, crate::serve::shutdown(), state.stop.clone(), move || {
-            open.ws_open.load(Relaxed)
-        })
-        .await;
+    let served = net::serve(
+        listener,
+        router(state.clone()),
+        limits,
+        crate::shutdown::shutdown(),
+        state.stop.clone(),
+        move || open.ws_open.load(Relaxed),
+    )
+    .await;
     reaper.abort();
     served
 }

@@ -12,8 +12,8 @@
 
 use crate::action::{Action, ActionParseError, ParsedAction, parse_action};
 use crate::episode::Episode;
-use crate::eval::prompt::SYSTEM_PROMPT;
 use crate::features::features;
+use crate::instructions::SYSTEM_PROMPT;
 use crate::observation::{Observation, render_scene};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use schemars::JsonSchema;

@@ -154,16 +154,6 @@ impl EndpointsFile {
     }
 }
 
-/// A directory-safe rendering of a model id: `openai/gpt-4o` -> `openai_gpt-4o`.
-pub fn sanitize_name(model: &str) -> String {
-    let s: String = model
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || matches!(c, '-' | '.' | '_') { c } else { '_' })
-        .collect();
-    let s = s.trim_matches(|c| c == '.' || c == '_').to_string();
-    if s.is_empty() { "model".to_string() } else { s.chars().take(80).collect() }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -214,12 +204,5 @@ mod tests {
         let text = "[endpoints.x]\nbase_url = \"http://h/v1\"\nprofile = \"missing\"\n";
         let e = EndpointsFile::parse("f.toml", text).unwrap_err().to_string();
         assert_eq!(e, "endpoint 'x' names request profile 'missing', which is not defined (known: )");
-    }
-
-    #[test]
-    fn names_are_directory_safe() {
-        assert_eq!(sanitize_name("openai/gpt-4o"), "openai_gpt-4o");
-        assert_eq!(sanitize_name("../.."), "model");
-        assert_eq!(sanitize_name("qwen3:30b"), "qwen3_30b");
     }
 }

@@ -18,10 +18,11 @@
 //! previous request of its episode.
 
 use super::EvalOptions;
-use super::prompt::{History, SYSTEM_PROMPT, history_answer};
+use super::prompt::{History, history_answer};
 use crate::action::parse_action;
 use crate::episode::Episode;
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table};
+use crate::instructions::SYSTEM_PROMPT;
 use crate::llm::client::request_body;
 use crate::llm::{ChatMessage, ChatRequest, Role};
 use crate::observation::render_scene;
@@ -122,8 +123,8 @@ fn measure(options: &EvalOptions, key: (ScenarioKind, Tier, u64)) -> Measured {
             request_body(&request)
         };
         let shared = previous.iter().zip(&body).take_while(|(a, b)| a == b).count();
-        let answer = crate::serve::answer(PolicyKind::Expert, 0, &scene.content);
-        let content = crate::serve::action_content(&answer.action, &answer.reasoning);
+        let answer = crate::policy::reply::answer(PolicyKind::Expert, 0, &scene.content);
+        let content = crate::policy::reply::action_content(&answer.action, &answer.reasoning);
         m.turns += 1;
         m.prompt_tokens += tokens(body.len());
         m.cacheable_tokens += (shared / BYTES_PER_TOKEN) as u64;
@@ -290,7 +291,7 @@ pub fn render(plan: &Plan, options: &EvalOptions) -> String {
         plan.reasoning_per_turn,
         options.profile_name
     ));
-    let usd = crate::eval::prices::usd;
+    let usd = crate::rundir::usd;
     match (&options.pricing, plan.cost_no_cache, plan.cost_all_cached) {
         (Some(p), Some(full), Some(cached)) => out.push_str(&format!(
             "estimated cost: {} with no cache hit, {} if every cacheable prefix hits ({} '{}' as of {}: input ${}, \

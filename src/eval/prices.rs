@@ -257,22 +257,6 @@ fn is_date(s: &str) -> bool {
     b.len() == 10 && b.iter().enumerate().all(|(i, c)| if i == 4 || i == 7 { *c == b'-' } else { c.is_ascii_digit() })
 }
 
-/// `$0.0123`, `$4.56`, `$1234`: enough digits to see a small run's cost.
-pub fn usd(x: f64) -> String {
-    if x >= 100.0 {
-        format!("${x:.0}")
-    } else if x >= 1.0 {
-        format!("${x:.2}")
-    } else {
-        format!("${x:.4}")
-    }
-}
-
-/// An optional cost for display: "unknown" when the price is not known.
-pub fn usd_or_unknown(x: Option<f64>) -> String {
-    x.map_or_else(|| "unknown".to_string(), usd)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -414,13 +398,5 @@ free = true
         assert!(!e.contains('\n'), "one line: {e}");
         let e = err("as_of = \"2025-01-01\"\n[providers.new.models]\n\"m\" = { input = 1.0, output = 2.0 }\n");
         assert!(e.starts_with("p.toml: providers.new.hosts: a new provider needs"), "{e}");
-    }
-
-    #[test]
-    fn dollars_show_enough_digits() {
-        assert_eq!(usd(0.012345), "$0.0123");
-        assert_eq!(usd(4.561), "$4.56");
-        assert_eq!(usd(1234.4), "$1234");
-        assert_eq!(usd_or_unknown(None), "unknown");
     }
 }

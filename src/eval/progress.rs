@@ -30,7 +30,7 @@ fn status(c: &Counters) -> String {
         c.infra_errors.load(Relaxed),
         c.retries.load(Relaxed),
         human(c.tokens.load(Relaxed)),
-        crate::eval::prices::usd_or_unknown(c.cost())
+        crate::rundir::usd_or_unknown(c.cost())
     );
     if let Some(e) = c.recent_error() {
         line.push_str(&format!(" | last error: {}", crate::llm::client::clip(&e, 100)));

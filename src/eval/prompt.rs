@@ -2,39 +2,14 @@
 //! per decision carrying the scene text, with the model's earlier answers
 //! kept in between.
 //!
-//! The system prompt explains the task, the answer format and the controller
-//! mapping of [`crate::action::Action::control`]. It says nothing about the
-//! other road user's possible intentions or how they show: inferring them is
-//! the task.
+//! The system prompt itself is [`crate::instructions::SYSTEM_PROMPT`], the
+//! one every front end sends.
 
 use crate::belief::Probe;
+use crate::instructions::SYSTEM_PROMPT;
 use crate::llm::{ChatMessage, Role};
 use crate::rundir::HistoryWindow;
 use crate::scenario::ScenarioKind;
-
-pub const SYSTEM_PROMPT: &str = "\
-You are the driver of an automated car (the ego vehicle) in a short traffic situation. \
-Each turn you receive a description of the scene: your own speed, acceleration and distances, \
-and the recent positions and speeds of the other road users. You cannot see what the others \
-intend; you can only judge from how they move. Your goal is to reach your goal position without \
-a collision, and without waiting needlessly: the episode ends when you reach the goal, when you \
-collide, or when the turns run out. Running out of turns is a failure (scored only by how far you \
-got, always below any success); a collision is the worst outcome. A collision is any overlap of \
-your car's body with another road user's body (cars are 4.8 m long and 1.9 m wide, a pedestrian \
-0.6 m across), checked every 0.1 s.
-
-Every turn, answer with exactly one JSON object and nothing else:
-{\"reasoning\": \"<one or two short sentences>\", \"maneuver\": \"<proceed | yield | stop | nudge_forward>\", \"acceleration\": <number from -1 to 1>, \"steering\": 0.0}
-
-The maneuver selects how your car is controlled; the magnitude |acceleration| (0 to 1) sets \
-how strongly, linearly inside that maneuver's band (a = |acceleration|):
-- proceed: go on toward the speed limit, accelerating at 3.0 x a m/s^2: 0 holds your current speed, 1 accelerates at 3.0 m/s^2.
-- nudge_forward: creep toward 2.0 m/s, accelerating at 0.5 + 1.0 x a m/s^2, or braking at 2.0 + 2.0 x a m/s^2 if faster.
-- yield: slow down toward a stop, braking at 0.5 + 3.5 x a m/s^2.
-- stop: brake to a stop, at 4.0 + 4.0 x a m/s^2.
-The sign of acceleration does not matter, and steering is ignored (you stay on your path). \
-Each answer is held for 0.5 s, then you get the next scene. An answer that cannot be read as \
-this JSON object is executed as a firm stop.";
 
 /// The system prompt of one episode: [`SYSTEM_PROMPT`], plus the belief
 /// question of its scenario when the run probes beliefs.

@@ -3,7 +3,7 @@
 //! shown as their own column.
 
 use crate::belief::BeliefSummary;
-use crate::episode::{EvidenceTiming, Outcome};
+use crate::episode::{Outcome, evidence_lag, guess_rate};
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
@@ -151,20 +151,6 @@ fn seed_rates(eps: &[EpisodeScalars]) -> (Vec<f64>, u32) {
     (by_seed.into_values().map(|(wins, n)| f64::from(wins) / f64::from(n)).collect(), most)
 }
 
-/// Share of the episodes with a commitment that committed before the
-/// evidence turn (NaN when none committed).
-pub fn guess_rate(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
-    let guesses: Vec<f64> = timings.filter_map(|t| t.guessed()).map(|g| f64::from(u8::from(g))).collect();
-    mean(&guesses)
-}
-
-/// Mean turns from the evidence to the commitment over the episodes that
-/// committed at or after it (NaN when none did).
-pub fn evidence_lag(timings: impl Iterator<Item = EvidenceTiming>) -> f64 {
-    let lags: Vec<f64> = timings.filter_map(|t| t.lag()).map(f64::from).collect();
-    mean(&lags)
-}
-
 /// The leaderboard as a table: one row per (scenario, tier).
 pub(crate) fn table(summary: &Summary) -> Table {
     let mut t = Table::new(
@@ -261,7 +247,7 @@ pub fn render(summary: &Summary) -> String {
 fn cost_line(summary: &Summary) -> String {
     match (summary.cost_usd, &summary.prices_as_of) {
         (Some(c), Some(date)) => {
-            format!("estimated cost: {} (an estimate, at the prices of {date} in the prices file)", crate::eval::prices::usd(c))
+            format!("estimated cost: {} (an estimate, at the prices of {date} in the prices file)", crate::rundir::usd(c))
         }
         _ => "estimated cost: unknown (no price for this model and endpoint in the prices file: add one with --prices-file)"
             .to_string(),

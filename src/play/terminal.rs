@@ -58,7 +58,7 @@ impl State {
             screen: Screen {
                 name: side.name.clone(),
                 help: true,
-                help_text: format!("{}\n\nKeys\n{}", crate::eval::prompt::SYSTEM_PROMPT, HELP_KEYS),
+                help_text: format!("{}\n\nKeys\n{}", crate::instructions::SYSTEM_PROMPT, HELP_KEYS),
                 ..Screen::default()
             },
             pending: None,

@@ -2,6 +2,7 @@
 //! opaque seed for its own randomness): the type of `act` is the firewall.
 
 mod expert;
+pub(crate) mod reply;
 mod simple;
 
 pub use expert::{CueFollower, Expert, ExpertCautious, ExpertHedge, ExpertLate, MODERATE_FRACTION};

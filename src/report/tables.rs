@@ -685,7 +685,7 @@ pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
             Cell::Float(r.completion_tokens_per_episode),
             if r.cached_share.is_finite() { Cell::Percent(100.0 * r.cached_share) } else { Cell::Missing },
             Cell::Float(r.cached_share),
-            Cell::text(crate::eval::prices::usd_or_unknown(r.cost_usd)),
+            Cell::text(crate::rundir::usd_or_unknown(r.cost_usd)),
             r.cost_usd.map_or(Cell::Unknown, Cell::Float),
             Cell::WithParen(
                 Box::new(Cell::Float(r.latency_s_per_episode)),

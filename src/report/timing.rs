@@ -8,7 +8,7 @@
 
 use super::load::ModelData;
 use super::reference::{CEILING, References};
-use crate::eval::summary::{evidence_lag, guess_rate};
+use crate::episode::{evidence_lag, guess_rate};
 use crate::export::{Cell, Column, Style, Table};
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, wilson_ci};

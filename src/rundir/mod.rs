@@ -445,9 +445,50 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunDirError> {
         .map_err(|source| RunDirError::Io { path: path.display().to_string(), source })
 }
 
+/// A directory-safe rendering of a model id: `openai/gpt-4o` -> `openai_gpt-4o`.
+pub fn sanitize_name(model: &str) -> String {
+    let s: String = model
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || matches!(c, '-' | '.' | '_') { c } else { '_' })
+        .collect();
+    let s = s.trim_matches(|c| c == '.' || c == '_').to_string();
+    if s.is_empty() { "model".to_string() } else { s.chars().take(80).collect() }
+}
+
+/// `$0.0123`, `$4.56`, `$1234`: enough digits to see a small run's cost.
+pub fn usd(x: f64) -> String {
+    if x >= 100.0 {
+        format!("${x:.0}")
+    } else if x >= 1.0 {
+        format!("${x:.2}")
+    } else {
+        format!("${x:.4}")
+    }
+}
+
+/// An optional cost for display: "unknown" when the price is not known.
+pub fn usd_or_unknown(x: Option<f64>) -> String {
+    x.map_or_else(|| "unknown".to_string(), usd)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_are_directory_safe() {
+        assert_eq!(sanitize_name("openai/gpt-4o"), "openai_gpt-4o");
+        assert_eq!(sanitize_name("../.."), "model");
+        assert_eq!(sanitize_name("qwen3:30b"), "qwen3_30b");
+    }
+
+    #[test]
+    fn dollars_show_enough_digits() {
+        assert_eq!(usd(0.012345), "$0.0123");
+        assert_eq!(usd(4.561), "$4.56");
+        assert_eq!(usd(1234.4), "$1234");
+        assert_eq!(usd_or_unknown(None), "unknown");
+    }
 
     fn config() -> RunConfig {
         let mut params = Map::new();

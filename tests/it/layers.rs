@@ -190,3 +190,40 @@ fn eval_imports_each_name_where_it_is_used() {
     }
     assert!(globs.is_empty(), "glob imports in eval: {globs:?}");
 }
+
+/// The front ends, and which other front ends each may import: none,
+/// except `play`, which is `eval` with a person as the endpoint.
+const FRONT_ENDS: [(&str, &[&str]); 5] =
+    [("eval", &[]), ("serve", &[]), ("envserver", &[]), ("report", &[]), ("play", &["eval"])];
+
+/// Every import of one front end by another that the rule above forbids.
+fn front_end_crossings(graph: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    let mut crossings = Vec::new();
+    for (front_end, allowed) in FRONT_ENDS {
+        for (other, _) in FRONT_ENDS {
+            let uses = graph.get(front_end).is_some_and(|u| u.contains(other));
+            if other != front_end && uses && !allowed.contains(&other) {
+                crossings.push(format!("{front_end} -> {other}"));
+            }
+        }
+    }
+    crossings
+}
+
+/// Front ends never reach into each other: what two of them share (the
+/// system prompt, a scripted reply, the shutdown signal, run naming, the
+/// prices' display, the evidence-timing metrics) lives in a layer below
+/// both.
+#[test]
+fn front_ends_do_not_import_each_other() {
+    let graph = import_graph(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
+    assert!(FRONT_ENDS.iter().all(|(m, _)| graph.contains_key(*m)), "{graph:?}");
+    assert!(graph["play"].contains("eval"), "play runs eval");
+    let crossings = front_end_crossings(&graph);
+    assert!(crossings.is_empty(), "front ends importing each other: {crossings:?}");
+    // A planted import is caught.
+    let mut planted = graph.clone();
+    planted.get_mut("envserver").unwrap().insert("eval".to_string());
+    planted.get_mut("play").unwrap().insert("serve".to_string());
+    assert_eq!(front_end_crossings(&planted), ["envserver -> eval", "play -> serve"]);
+}

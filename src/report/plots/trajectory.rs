@@ -185,7 +185,7 @@ fn plot(model: &str, shown: &str, l: &Loaded, style: super::Style) -> Plot {
     legend(&mut svg, &fig, layout.height - 14.0);
     let name = format!(
         "trajectory_{}_{}_t{}_s{}_r{}",
-        crate::eval::config::sanitize_name(model),
+        crate::rundir::sanitize_name(model),
         r.scenario,
         r.tier,
         r.seed,
