@@ -63,13 +63,11 @@ impl LinearPolicy {
     /// The index of the chosen action.
     pub fn act(&self, x: &[f64]) -> usize {
         let n = self.inputs();
-        let score = |a: usize| {
-            let row = &self.weights[a * n..(a + 1) * n];
-            let dot: f64 =
-                x.iter().zip(&self.mean).zip(&self.scale).zip(row).map(|(((x, m), s), w)| (x - m) / s * w).sum();
-            dot + row[n - 1]
-        };
-        (0..DISCRETE_ACTIONS.len()).max_by(|&a, &b| score(a).total_cmp(&score(b)).then(b.cmp(&a))).unwrap_or(0)
+        let z: Vec<f64> = x.iter().zip(&self.mean).zip(&self.scale).map(|((x, m), s)| (x - m) / s).collect();
+        let scores =
+            self.weights.chunks_exact(n).map(|row| z.iter().zip(row).map(|(z, w)| z * w).sum::<f64>() + row[n - 1]);
+        // The highest score; a tie goes to the lower index.
+        scores.enumerate().fold((0, f64::NEG_INFINITY), |best, (a, v)| if v > best.1 { (a, v) } else { best }).0
     }
 }
 
@@ -97,12 +95,15 @@ fn play(
     let mut s = LearnedScore { episodes: seeds.len(), ..LearnedScore::default() };
     for &seed in seeds {
         let mut episode = Episode::new(config, tier, seed);
+        // The first reading, kept only when the masked view needs it.
         let mut first: Option<Vec<f64>> = None;
         while !episode.is_done() {
             let mut x = features(&episode.observation().rounded(), tier);
-            let first = first.get_or_insert_with(|| x.clone());
-            for &i in &slots {
-                x[i] = first[i];
+            if masked {
+                let first = first.get_or_insert_with(|| x.clone());
+                for &i in &slots {
+                    x[i] = first[i];
+                }
             }
             episode.step(DISCRETE_ACTIONS[choose(&x)]);
         }
