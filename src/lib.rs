@@ -57,6 +57,7 @@ pub mod export;
 pub mod features;
 pub(crate) mod grading;
 pub(crate) mod hash;
+pub mod inspect_log;
 pub mod instructions;
 pub(crate) mod llm;
 pub(crate) mod noise;

@@ -90,6 +90,24 @@ def test_inspect_plays_the_episodes_eval_plays(env_server: str, expert_endpoint:
             r["outcome"], r["reward"], r["turns_taken"], r["disposition"],
         ), r["scenario"]
         assert mine["decision_correctness"] == r["decision_correctness"]
+    # The log on the leaderboard: imported, it is eval's run line for line
+    # (but for what only the harness knows: the model's name, usage, timing).
+    assert log.location
+    imported = tmp_path / "imported"
+    run = subprocess.run(
+        [BIN, "import-inspect", log.location, "--output", str(imported)], capture_output=True, text=True, check=False
+    )
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in (imported / "rollouts.jsonl").read_text().splitlines()]
+    theirs = {(r["scenario"], r["tier"], r["seed"]): r for r in rollouts}
+    same = ["outcome", "reward", "decision_correctness", "disposition", "turns_taken", "evidence_turn",
+            "commitment_turn", "diagnostics", "trajectory"]
+    assert len(lines) == len(theirs)
+    for line in lines:
+        other = theirs[(line["scenario"], line["tier"], line["seed"])]
+        assert [line[f] for f in same] == [other[f] for f in same], line["scenario"]
+        assert [t["reply"] for t in line["turns"]] == [t["reply"] for t in other["turns"]]
+    assert json.loads((imported / "run.json").read_text())["config"]["model"] == "openai-api/negotiator/expert"
 
 
 def test_mockllms_default_answer_drives_as_evals_firm_stop(env_server: str, tmp_path: Path) -> None:

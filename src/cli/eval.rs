@@ -16,7 +16,6 @@ use crate::eval::events::{Reporter, StopReason};
 use crate::eval::prices::Prices;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::eval::{EvalError, EvalOptions};
-use crate::hash::fnv1a64_hex;
 use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
 use crate::rundir::sanitize_name;
@@ -238,7 +237,7 @@ impl EvalArgs {
             request_params: built.params,
             history,
             prompt_hash: crate::eval::prompt::prompt_hash(self.probe),
-            scenarios_hash: scenarios_hash(&scenario_set),
+            scenarios_hash: scenario_set.config_hash(),
             endpoint: crate::redact::url_without_userinfo(&target.base_url),
             probe: self.probe,
             human: None,
@@ -591,15 +590,6 @@ fn api_key(var: Option<&str>) -> anyhow::Result<Option<String>> {
             "the API key variable ${var} is not set (export {var}=... or choose another with --api-key-var)"
         ))),
     }
-}
-
-/// Hash of the scenario parameters in force (built-ins or overrides).
-pub(crate) fn scenarios_hash(set: &ScenarioSet) -> String {
-    let configs: Vec<Value> = ScenarioKind::ALL
-        .iter()
-        .map(|k| serde_json::to_value(set.get(*k)).expect("scenario config serialises"))
-        .collect();
-    fnv1a64_hex(&Value::Array(configs).to_string())
 }
 
 fn clip_header(h: &str) -> String {

@@ -4,6 +4,7 @@
 mod baselines;
 mod env_server;
 mod eval;
+mod import_inspect;
 mod play;
 mod report;
 mod serve;
@@ -69,6 +70,8 @@ pub enum Command {
     Play(play::PlayArgs),
     /// Leaderboards, paired comparisons, plots and an offline report.html from run directories.
     Report(report::ReportArgs),
+    /// Turn an Inspect AI eval log of the negotiator task into a run directory for `report`.
+    ImportInspect(import_inspect::ImportInspectArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
@@ -80,6 +83,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::EnvServer(args) => args.run(),
         Command::Play(args) => args.run(),
         Command::Report(args) => args.run(),
+        Command::ImportInspect(args) => args.run(),
     }
 }
 

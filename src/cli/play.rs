@@ -85,7 +85,7 @@ impl PlayArgs {
             request_params: Default::default(),
             history: HistoryWindow::Full,
             prompt_hash: crate::eval::prompt::prompt_hash(crate::belief::Probe::None),
-            scenarios_hash: super::eval::scenarios_hash(&scenario_set),
+            scenarios_hash: scenario_set.config_hash(),
             endpoint: "terminal".to_string(),
             probe: crate::belief::Probe::None,
             human: Some(HumanSettings { turn_seconds: self.turn_seconds, view: self.view.clone(), feedback }),

@@ -15,9 +15,10 @@ use std::time::Instant;
 
 #[derive(Debug, clap::Args)]
 pub struct ReportArgs {
-    /// Run directories (from `eval`), or directories holding run
-    /// directories. Runs of one configuration (shards) are joined.
-    #[arg(value_name = "RUN_DIR", required = true)]
+    /// Run directories (from `eval`), directories holding run directories,
+    /// or Inspect AI eval logs of the negotiator task (`.eval`, `.json`).
+    /// Runs of one configuration (shards) are joined.
+    #[arg(value_name = "RUN_DIR|LOG", required = true)]
     pub runs: Vec<PathBuf>,
     /// Directory holding the reference baselines.csv (expert ceiling,
     /// always_proceed floor). Without the flag and without the default
@@ -67,6 +68,23 @@ pub struct ReportArgs {
     pub quiet: bool,
 }
 
+/// A private directory under the system's temporary directory, removed
+/// when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new() -> Scratch {
+        let nonce: u64 = rand::random();
+        Scratch(std::env::temp_dir().join(format!("negotiator-report-{}-{nonce:016x}", std::process::id())))
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 /// `--style`: clap lists the styles in `--help` and refuses any other.
 fn style_parser() -> impl clap::builder::TypedValueParser<Value = Style> {
     use clap::builder::TypedValueParser;
@@ -108,7 +126,12 @@ impl ReportArgs {
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let started = Instant::now();
-        let opts = self.options()?;
+        let mut opts = self.options()?;
+        // Inspect logs are read as the run directories they import to, in a
+        // scratch directory that lives as long as the report is built.
+        let scratch = Scratch::new();
+        opts.dirs =
+            crate::inspect_log::import_inputs(&opts.dirs, &scratch.0).map_err(super::import_inspect::input_error)?;
         let input = |e: ReportError| if e.is_input() { usage(e.to_string()) } else { anyhow::Error::new(e) };
         let built = report::build(&opts).map_err(input)?;
         let written = report::write(&built, &self.out).map_err(input)?;

@@ -10,7 +10,6 @@ use super::{Ctx, EvalError, EvalOptions, interrupted, now_rfc3339, truncation};
 use crate::grading::Outcome;
 use crate::llm::LlmError;
 use crate::llm::profile::{rejected_parameter, remedy_for};
-use crate::rundir::SCHEMA_VERSION;
 use crate::rundir::record::{EpisodeKey, EpisodeScalars, InfraErrorRecord};
 use crate::scenario::{ScenarioKind, Tier};
 use std::collections::HashMap;
@@ -119,16 +118,7 @@ impl Driver<'_> {
         counters.infra_errors.fetch_add(1, Relaxed);
         counters.done.fetch_add(1, Relaxed);
         self.run.invocation.infra_errors += 1;
-        let rec = InfraErrorRecord {
-            schema_version: SCHEMA_VERSION,
-            scenario: key.scenario,
-            tier: key.tier,
-            seed: key.seed,
-            rollout: key.rollout,
-            turn,
-            error: message.to_string(),
-            at: now_rfc3339(),
-        };
+        let rec = InfraErrorRecord::new(key, turn, message.to_string(), now_rfc3339());
         let _ = self.run.writer.tx.send(WriteMsg::InfraError(serde_json::to_string(&rec).expect("serialises")));
     }
 

@@ -180,5 +180,6 @@ pub(super) fn running_info(
         last_invocation: invocation,
         totals: Totals { episodes: finished as u64, ..previous.map(|p| p.totals.clone()).unwrap_or_default() },
         pricing: options.pricing.clone(),
+        imported_from: None,
     }
 }

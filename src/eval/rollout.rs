@@ -6,10 +6,9 @@ use super::{AtomicU32, Ctx, now_rfc3339, prompt};
 use crate::action::{parse_action, parse_belief};
 use crate::belief::{BeliefMetrics, BeliefTurn, Probe};
 use crate::episode::{Episode, EpisodeRecord};
-use crate::llm::{ChatMessage, ChatRequest, Completion, LlmError, Role, Usage};
+use crate::llm::{ChatMessage, ChatRequest, Completion, LlmError, Role};
 use crate::observation::render_scene;
-use crate::rundir::SCHEMA_VERSION;
-use crate::rundir::record::{EpisodeKey, EpisodeScalars, RolloutRecord, TurnRecord};
+use crate::rundir::record::{EpisodeKey, EpisodeScalars, Provenance, RolloutRecord, TurnRecord};
 use std::sync::atomic::Ordering::Relaxed;
 use std::time::Instant;
 /// A finished episode's summary scalars and its line, or why it did not finish.
@@ -136,9 +135,6 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         history.push(scene, answer);
     }
     let graded = episode.finish();
-    for (t, d) in turns.iter_mut().zip(&graded.decisions) {
-        t.after_resolution = d.after_resolution;
-    }
     let record = rollout_record(ctx, key, graded, turns, (retries.load(Relaxed), cost), started);
     let line = serde_json::to_string(&record).expect("a rollout record serialises");
     Ok((EpisodeScalars::from(&record), line))
@@ -167,7 +163,7 @@ pub(super) fn billed_tokens(completion: &Completion, sent_bytes: usize) -> (u64,
 }
 
 /// The line of a finished episode: its grades and its transcript, with the
-/// per-episode sums of the turns.
+/// per-episode sums of the turns ([`RolloutRecord::assemble`]).
 pub(super) fn rollout_record(
     ctx: &Ctx,
     key: EpisodeKey,
@@ -179,50 +175,24 @@ pub(super) fn rollout_record(
     let belief = (ctx.options.config.probe == Probe::Belief).then(|| {
         let turns: Vec<BeliefTurn> = turns
             .iter()
-            .map(|t| BeliefTurn {
+            .zip(&graded.decisions)
+            .map(|(t, d)| BeliefTurn {
                 turn: t.turn,
                 stated: t.belief,
                 ideal: t.ideal_belief.unwrap_or(0.5),
                 maneuver: t.parse_errors.is_empty().then_some(t.action.maneuver),
-                open: !t.after_resolution,
+                open: !d.after_resolution,
             })
             .collect();
         BeliefMetrics::compute(&turns, graded.disposition.ego_should_go(), graded.timing.evidence_turn)
     });
-    let usage = |part: fn(&Usage) -> Option<u64>| -> u64 {
-        turns.iter().filter_map(|t| t.usage.as_ref()).map(|u| part(u).unwrap_or(0)).sum()
-    };
-    RolloutRecord {
-        schema_version: SCHEMA_VERSION,
+    let from = Provenance {
         model: ctx.options.config.model.clone(),
         config_hash: ctx.hash.clone(),
-        scenario: key.scenario,
-        tier: key.tier,
-        seed: key.seed,
-        rollout: key.rollout,
-        disposition: graded.disposition,
-        outcome: graded.outcome,
-        reward: graded.grades.reward,
-        decision_correctness: graded.grades.decision_correctness,
-        timing: graded.timing,
-        belief,
-        diagnostics: graded.grades.diagnostics,
-        turns_taken: turns.len() as u32,
-        // A cut-off reply is counted as truncated, not as a parse error.
-        parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty() && !t.truncated).count() as u32,
-        tokens: turns.iter().map(|t| t.tokens).sum(),
-        prompt_tokens: usage(|u| u.prompt_tokens),
-        // Billed output: thinking that only the total reports counts too.
-        completion_tokens: usage(|u| u.completion_tokens.map(|c| c + u.hidden_reasoning())),
-        truncated_turns: turns.iter().filter(|t| t.truncated).count() as u32,
-        reasoning_tokens: turns.iter().map(|t| t.reasoning_tokens).sum(),
-        cached_tokens: turns.iter().map(|t| t.cached_tokens).sum(),
-        cost_usd,
-        latency_ms: turns.iter().map(|t| t.latency_ms).sum(),
         retries,
+        cost_usd,
         wall_ms: started.elapsed().as_millis() as u64,
         finished_at: now_rfc3339(),
-        turns,
-        trajectory: graded.trajectory,
-    }
+    };
+    RolloutRecord::assemble(key, graded, turns, belief, from)
 }

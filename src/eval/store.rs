@@ -390,6 +390,7 @@ mod tests {
             },
             totals: Totals::default(),
             pricing: None,
+            imported_from: None,
         };
         write_run_info(&dir, &info).unwrap();
         let read = read_run_info(&dir).unwrap().unwrap();

@@ -409,6 +409,26 @@ pub struct RunInfo {
     /// none for this model and host (the cost is then unknown).
     #[serde(default)]
     pub pricing: Option<Pricing>,
+    /// A run played by another harness and imported (`import-inspect`):
+    /// where its episodes come from. Absent for runs `eval` and `play` made.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imported_from: Option<ImportSource>,
+}
+
+/// The log an imported run was read from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImportSource {
+    /// The harness that played the episodes (`inspect_ai`) and its version.
+    pub harness: String,
+    pub harness_version: String,
+    /// The log file's name.
+    pub log: String,
+    /// The harness's own identifiers of the evaluation and its task.
+    pub eval_id: String,
+    pub run_id: String,
+    pub task: String,
+    /// The task's arguments as the harness recorded them.
+    pub task_args: Map<String, Value>,
 }
 
 /// Read `dir/run.json`; `None` if there is none. A file of a newer schema

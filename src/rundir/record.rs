@@ -4,7 +4,7 @@
 
 use crate::action::{Action, ActionParseError};
 use crate::belief::BeliefMetrics;
-use crate::episode::{EvidenceTiming, Outcome, TrajectoryPoint};
+use crate::episode::{EpisodeRecord, EvidenceTiming, Outcome, TrajectoryPoint};
 use crate::grading::Diagnostics;
 use crate::llm::Usage;
 use crate::scenario::{Disposition, ScenarioKind, Tier};
@@ -152,9 +152,74 @@ pub struct RolloutRecord {
     pub trajectory: Option<Vec<TrajectoryPoint>>,
 }
 
+/// What a rollout line says beyond the episode itself: who played it,
+/// under which configuration, and what it cost.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Provenance {
+    pub model: String,
+    pub config_hash: String,
+    /// Failed requests retried during the episode.
+    pub retries: u32,
+    pub cost_usd: Option<f64>,
+    pub wall_ms: u64,
+    pub finished_at: String,
+}
+
 impl RolloutRecord {
     pub fn key(&self) -> EpisodeKey {
         EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
+    }
+
+    /// The line of a graded episode: its grades, its transcript (each turn
+    /// marked settled or open from the grader's decisions) and the
+    /// per-episode sums of the turns. The one place those sums are made,
+    /// whoever played the episode (`eval`, or an imported Inspect run).
+    pub fn assemble(
+        key: EpisodeKey,
+        graded: EpisodeRecord,
+        mut turns: Vec<TurnRecord>,
+        belief: Option<BeliefMetrics>,
+        from: Provenance,
+    ) -> RolloutRecord {
+        for (t, d) in turns.iter_mut().zip(&graded.decisions) {
+            t.after_resolution = d.after_resolution;
+        }
+        let usage = |part: fn(&Usage) -> Option<u64>| -> u64 {
+            turns.iter().filter_map(|t| t.usage.as_ref()).map(|u| part(u).unwrap_or(0)).sum()
+        };
+        RolloutRecord {
+            schema_version: super::SCHEMA_VERSION,
+            model: from.model,
+            config_hash: from.config_hash,
+            scenario: key.scenario,
+            tier: key.tier,
+            seed: key.seed,
+            rollout: key.rollout,
+            disposition: graded.disposition,
+            outcome: graded.outcome,
+            reward: graded.grades.reward,
+            decision_correctness: graded.grades.decision_correctness,
+            timing: graded.timing,
+            belief,
+            diagnostics: graded.grades.diagnostics,
+            turns_taken: turns.len() as u32,
+            // A cut-off reply is counted as truncated, not as a parse error.
+            parse_error_turns: turns.iter().filter(|t| !t.parse_errors.is_empty() && !t.truncated).count() as u32,
+            tokens: turns.iter().map(|t| t.tokens).sum(),
+            prompt_tokens: usage(|u| u.prompt_tokens),
+            // Billed output: thinking that only the total reports counts too.
+            completion_tokens: usage(|u| u.completion_tokens.map(|c| c + u.hidden_reasoning())),
+            truncated_turns: turns.iter().filter(|t| t.truncated).count() as u32,
+            reasoning_tokens: turns.iter().map(|t| t.reasoning_tokens).sum(),
+            cached_tokens: turns.iter().map(|t| t.cached_tokens).sum(),
+            cost_usd: from.cost_usd,
+            latency_ms: turns.iter().map(|t| t.latency_ms).sum(),
+            retries: from.retries,
+            wall_ms: from.wall_ms,
+            finished_at: from.finished_at,
+            turns,
+            trajectory: graded.trajectory,
+        }
     }
 }
 
@@ -255,6 +320,20 @@ pub struct InfraErrorRecord {
 }
 
 impl InfraErrorRecord {
+    /// The record of `key` given up at `turn` for `error`, at time `at`.
+    pub fn new(key: EpisodeKey, turn: u32, error: String, at: String) -> InfraErrorRecord {
+        InfraErrorRecord {
+            schema_version: super::SCHEMA_VERSION,
+            scenario: key.scenario,
+            tier: key.tier,
+            seed: key.seed,
+            rollout: key.rollout,
+            turn,
+            error,
+            at,
+        }
+    }
+
     pub fn key(&self) -> EpisodeKey {
         EpisodeKey { scenario: self.scenario, tier: self.tier, seed: self.seed, rollout: self.rollout }
     }

@@ -596,6 +596,16 @@ impl Default for ScenarioSet {
 }
 
 impl ScenarioSet {
+    /// Hash of the scenario parameters in force (built-ins or overrides):
+    /// part of a run's identity (run.json `config.scenarios_hash`).
+    pub fn config_hash(&self) -> String {
+        let configs: Vec<serde_json::Value> = ScenarioKind::ALL
+            .iter()
+            .map(|k| serde_json::to_value(self.get(*k)).expect("scenario config serialises"))
+            .collect();
+        crate::hash::fnv1a64_hex(&serde_json::Value::Array(configs).to_string())
+    }
+
     pub fn with_overrides(files: &[std::path::PathBuf]) -> Result<ScenarioSet, ScenarioError> {
         let mut set = ScenarioSet::default();
         for f in files {

@@ -129,6 +129,7 @@ fn write_run(dir: &Path, spec: &RunSpec, lines: &[String]) {
         },
         totals: Totals::default(),
         pricing: None,
+        imported_from: None,
     };
     write_run_info(dir, &info).unwrap();
     std::fs::write(dir.join("rollouts.jsonl"), lines.concat()).unwrap();
