@@ -60,6 +60,7 @@ pub(crate) mod hash;
 pub mod inspect_log;
 pub mod instructions;
 pub(crate) mod llm;
+pub mod metrics;
 pub(crate) mod noise;
 pub mod observation;
 pub(crate) mod par;

@@ -2,56 +2,24 @@
 //! of the selection. Infrastructure errors are excluded from every score and
 //! shown as their own column.
 
-use crate::belief::BeliefSummary;
-use crate::episode::{Outcome, evidence_lag, guess_rate};
 use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
+use crate::metrics::{CellMetrics, RESAMPLES, outcome_columns};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
-use crate::stats::{Interval, cell_success_ci, mean};
+use crate::stats::mean;
 use serde::{Deserialize, Serialize};
 
-/// Percentile bootstrap resamples for the success interval (docs/report.md, "Statistics").
-pub const RESAMPLES: usize = 10_000;
-
+/// One (scenario, tier) of the selection: its figures over the finished
+/// episodes, and how many of the selection's episodes are missing.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellSummary {
     pub scenario: ScenarioKind,
     pub tier: Tier,
-    /// Finished episodes scored.
-    pub episodes: usize,
-    /// Seeds with a finished episode (the resampling units).
-    #[serde(default)]
-    pub seeds: usize,
-    /// Rollouts per seed (the most any seed has).
-    #[serde(default)]
-    pub rollouts: u32,
+    #[serde(flatten)]
+    pub metrics: CellMetrics,
     /// Episodes of the selection not finished (infrastructure errors, or not
     /// started: token budget, interruption). Excluded from every score.
     pub missing: usize,
-    /// Success rate with a 95% percentile bootstrap interval over seeds
-    /// (Wilson when every seed is 0, or every seed is 1).
-    pub success: Interval,
-    pub collision_rate: f64,
-    pub timeout_rate: f64,
-    pub mean_reward: f64,
-    pub decision_correctness: f64,
-    /// Share of committed episodes that committed before the evidence turn
-    /// (a guess).
-    pub guess_rate: f64,
-    /// Mean turns from the evidence to the commitment, over the episodes
-    /// that did not guess.
-    pub evidence_lag: f64,
-    /// Fraction of decision turns whose reply could not be read (cut-off
-    /// replies excepted: they are `truncated_rate`).
-    pub parse_error_rate: f64,
-    /// Fraction of decision turns cut off by the completion-token limit
-    /// (`finish_reason: "length"`).
-    #[serde(default)]
-    pub truncated_rate: f64,
-    pub tokens_per_episode: f64,
-    /// Belief-probe runs: the belief metrics of the cell.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub belief: Option<BeliefSummary>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -85,48 +53,22 @@ pub struct Summary {
 /// `cells`: for each (scenario, tier) of the selection, the finished
 /// episodes' scalars in key order and the number of missing episodes.
 pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>, usize)]) -> Summary {
-    let mut out = Vec::with_capacity(cells.len());
-    for (scenario, tier, eps, missing) in cells {
-        let n = eps.len();
-        let rate = |o: Outcome| {
-            if n == 0 { f64::NAN } else { eps.iter().filter(|e| e.outcome == o).count() as f64 / n as f64 }
-        };
-        let (per_seed, rollouts) = seed_rates(eps);
-        let turns: u64 = eps.iter().map(|e| e.turns_taken as u64).sum();
-        let bad: u64 = eps.iter().map(|e| e.parse_error_turns as u64).sum();
-        let cut: u64 = eps.iter().map(|e| e.truncated_turns as u64).sum();
-        out.push(CellSummary {
-            scenario: *scenario,
-            tier: *tier,
-            episodes: n,
-            seeds: per_seed.len(),
-            rollouts,
-            missing: *missing,
-            // Seeds are the units (rollouts of a seed are not independent), with the
-            // cell's fixed seed (base 0): a summary is a pure function of the episodes and
-            // equals the report's interval for the cell.
-            success: cell_success_ci(&per_seed, RESAMPLES, 0, scenario.name(), tier.number()),
-            collision_rate: rate(Outcome::Collision),
-            timeout_rate: rate(Outcome::Timeout),
-            mean_reward: mean(&eps.iter().map(|e| e.reward).collect::<Vec<_>>()),
-            decision_correctness: mean(&eps.iter().map(|e| e.decision_correctness).collect::<Vec<_>>()),
-            guess_rate: guess_rate(eps.iter().map(|e| e.timing)),
-            evidence_lag: evidence_lag(eps.iter().map(|e| e.timing)),
-            parse_error_rate: if turns == 0 { f64::NAN } else { bad as f64 / turns as f64 },
-            truncated_rate: if turns == 0 { f64::NAN } else { cut as f64 / turns as f64 },
-            tokens_per_episode: mean(&eps.iter().map(|e| e.tokens as f64).collect::<Vec<_>>()),
-            belief: eps
-                .iter()
-                .any(|e| e.belief.is_some())
-                .then(|| BeliefSummary::of(eps.iter().filter_map(|e| e.belief.as_ref()))),
-        });
-    }
+    let out: Vec<CellSummary> = cells
+        .iter()
+        .map(|(scenario, tier, eps, missing)| {
+            let eps: Vec<&EpisodeScalars> = eps.iter().collect();
+            // With the cell's fixed seed (base 0): a summary equals the
+            // report's interval for the cell.
+            let metrics = CellMetrics::of(&eps, *scenario, *tier, RESAMPLES, 0);
+            CellSummary { scenario: *scenario, tier: *tier, metrics, missing: *missing }
+        })
+        .collect();
     let sum = |part: fn(&EpisodeScalars) -> u64| cells.iter().flat_map(|c| c.2.iter()).map(part).sum::<u64>();
-    let scored: Vec<f64> = out.iter().filter(|c| c.episodes > 0).map(|c| c.success.estimate).collect();
+    let scored: Vec<f64> = out.iter().filter(|c| c.metrics.episodes > 0).map(|c| c.metrics.success.estimate).collect();
     Summary {
         model: model.to_string(),
         mean_success: mean(&scored),
-        episodes: out.iter().map(|c| c.episodes).sum(),
+        episodes: out.iter().map(|c| c.metrics.episodes).sum(),
         missing: out.iter().map(|c| c.missing).sum(),
         prompt_tokens: sum(|e| e.prompt_tokens),
         cached_tokens: sum(|e| e.cached_tokens),
@@ -138,62 +80,49 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
     }
 }
 
-/// Per seed, in seed order, its success rate over its rollouts; and the
-/// most rollouts any seed has.
-fn seed_rates(eps: &[EpisodeScalars]) -> (Vec<f64>, u32) {
-    let mut by_seed: std::collections::BTreeMap<u64, (u32, u32)> = std::collections::BTreeMap::new();
-    for e in eps {
-        let (wins, n) = by_seed.entry(e.seed).or_default();
-        *wins += u32::from(e.outcome == Outcome::Success);
-        *n += 1;
-    }
-    let most = by_seed.values().map(|&(_, n)| n).max().unwrap_or(0);
-    (by_seed.into_values().map(|(wins, n)| f64::from(wins) / f64::from(n)).collect(), most)
-}
-
 /// The leaderboard as a table: one row per (scenario, tier).
 pub(crate) fn table(summary: &Summary) -> Table {
     let mut t = Table::new(
         "summary",
         "",
-        vec![
-            Column::new("scenario", "scenario"),
-            Column::new("tier", "tier"),
-            Column::display("n (seeds x rollouts)"),
-            Column::data("episodes"),
-            Column::data("seeds"),
-            Column::new("success [95% CI]", "success").style(Style::Interval),
-            Column::new("collision", "collision_rate"),
-            Column::new("timeout", "timeout_rate"),
-            Column::new("reward", "mean_reward"),
-            Column::new("correctness", "decision_correctness"),
-            Column::new("guess rate", "guess_rate"),
-            Column::new("lag (turns)", "evidence_lag"),
-            Column::new("parse errors", "parse_error_rate"),
-            Column::new("truncated", "truncated_rate"),
-            Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
-            Column::new("missing", "missing"),
-        ],
+        [
+            vec![
+                Column::new("scenario", "scenario"),
+                Column::new("tier", "tier"),
+                Column::display("n (seeds x rollouts)"),
+                Column::data("episodes"),
+                Column::data("seeds"),
+            ],
+            outcome_columns("correctness"),
+            vec![
+                Column::new("guess rate", "guess_rate"),
+                Column::new("lag (turns)", "evidence_lag"),
+                Column::new("parse errors", "parse_error_rate"),
+                Column::new("truncated", "truncated_rate"),
+                Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
+                Column::new("missing", "missing"),
+            ],
+        ]
+        .concat(),
     );
-    for c in &summary.cells {
-        t.push(vec![
-            Cell::text(c.scenario.to_string()),
-            Cell::Int(c.tier.number().into()),
+    for s in &summary.cells {
+        let c = &s.metrics;
+        let head = [
+            Cell::text(s.scenario.to_string()),
+            Cell::Int(s.tier.number().into()),
             Cell::text(format!("{}x{}", c.seeds, c.rollouts)),
             Cell::Int(c.episodes as u64),
             Cell::Int(c.seeds as u64),
-            Cell::Interval(c.success),
-            Cell::Float(c.collision_rate),
-            Cell::Float(c.timeout_rate),
-            Cell::Float(c.mean_reward),
-            Cell::Float(c.decision_correctness),
+        ];
+        let tail = [
             Cell::Float(c.guess_rate),
             Cell::Float(c.evidence_lag),
             Cell::Float(c.parse_error_rate),
             Cell::Float(c.truncated_rate),
             Cell::Float(c.tokens_per_episode),
-            Cell::Int(c.missing as u64),
-        ]);
+            Cell::Int(s.missing as u64),
+        ];
+        t.push([head.to_vec(), c.outcome_cells(), tail.to_vec()].concat());
     }
     t
 }
@@ -206,14 +135,17 @@ pub(crate) fn belief_table(summary: &Summary) -> Option<Table> {
     columns.extend(crate::belief::columns());
     let mut t = Table::new("belief", "Belief probe", columns);
     for c in &summary.cells {
-        let Some(b) = &c.belief else { continue };
-        let mut row =
-            vec![Cell::text(c.scenario.to_string()), Cell::Int(c.tier.number().into()), Cell::Int(c.episodes as u64)];
+        let Some(b) = &c.metrics.belief else { continue };
+        let mut row = vec![
+            Cell::text(c.scenario.to_string()),
+            Cell::Int(c.tier.number().into()),
+            Cell::Int(c.metrics.episodes as u64),
+        ];
         row.extend(crate::belief::cells(b));
         t.push(row);
     }
     t.note(crate::belief::TABLE_NOTE);
-    summary.cells.iter().any(|c| c.belief.is_some()).then_some(t)
+    summary.cells.iter().any(|c| c.metrics.belief.is_some()).then_some(t)
 }
 
 /// `summary.md` and the table printed at the end of a run: the model, the
@@ -257,6 +189,7 @@ fn cost_line(summary: &Summary) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::episode::Outcome;
 
     fn ep(seed: u64, outcome: Outcome, parse_error_turns: u32) -> EpisodeScalars {
         EpisodeScalars {
@@ -298,8 +231,8 @@ mod tests {
             ep(3, Outcome::Success, 0),
         ];
         let s = summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, eps, 2)]);
-        let c = &s.cells[0];
-        assert_eq!((c.episodes, c.missing), (4, 2));
+        let c = &s.cells[0].metrics;
+        assert_eq!((c.episodes, s.cells[0].missing), (4, 2));
         assert_eq!(c.success.estimate, 0.5);
         assert!(c.success.lo < 0.5 && c.success.hi > 0.5);
         assert_eq!((c.collision_rate, c.timeout_rate), (0.25, 0.25));
@@ -350,7 +283,7 @@ mod tests {
                 .map(|&(seed, rollout, k)| EpisodeScalars { rollout, ..ep(seed, o[k], 0) })
                 .collect();
         let s = summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, eps, 0)]);
-        let c = &s.cells[0];
+        let c = &s.cells[0].metrics;
         assert_eq!((c.episodes, c.seeds, c.rollouts), (8, 4, 2));
         // The interval is the bootstrap of the 4 seed rates, not of the 8 episodes.
         let seed = crate::stats::cell_seed(0, ScenarioKind::PedestrianFeint.name(), Tier::T2.number());
@@ -361,7 +294,7 @@ mod tests {
         // Every seed a success: Wilson over the 4 seeds, not [1, 1].
         let all: Vec<EpisodeScalars> = (0..4).map(|seed| ep(seed, Outcome::Success, 0)).collect();
         let s = summarize("m", &[(ScenarioKind::PedestrianFeint, Tier::T2, all, 0)]);
-        assert_eq!(s.cells[0].success, crate::stats::wilson_ci(4.0, 4.0));
+        assert_eq!(s.cells[0].metrics.success, crate::stats::wilson_ci(4.0, 4.0));
     }
 
     #[test]

@@ -110,11 +110,11 @@ mod tests {
             model: model.into(),
             scenario,
             episodes: 200,
-            success: 0.5,
-            collision: 0.25,
-            timeout: 0.25,
+            success_rate: 0.5,
+            collision_rate: 0.25,
+            timeout_rate: 0.25,
             decision_correctness: 0.75,
-            reward: 0.1,
+            mean_reward: 0.1,
         };
         outcome_table(&[row(ScenarioKind::YieldStandoff), row(ScenarioKind::ContestedMerge)], &[Tier::T1])
     }

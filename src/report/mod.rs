@@ -35,8 +35,10 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use tables::{CostRow, Leaderboard, OutcomeRow, TierRow, tiers_label};
 
-/// The least number of bootstrap resamples accepted (docs/report.md, "Statistics").
-pub(crate) const MIN_RESAMPLES: usize = 10_000;
+/// The least number of bootstrap resamples accepted (docs/report.md,
+/// "Statistics"): eval's summary's own, so that a report at the default
+/// gives a cell the interval summary.json has.
+pub(crate) const MIN_RESAMPLES: usize = crate::metrics::RESAMPLES;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {

@@ -10,7 +10,9 @@ use super::load::{Episode, ModelData, same_unit};
 use super::reference::{CEILING, FLOOR, References};
 use crate::episode::Outcome;
 use crate::export::{Cell, Column, INCOMPLETE_MARK, Style, Table};
+use crate::metrics::{CellMetrics, mean_of, outcome_rate};
 use crate::par::par_map;
+use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, cell_success_ci, mean, quantile, success_ci};
 use serde::Serialize;
@@ -63,17 +65,6 @@ pub(crate) fn tiers_label(tiers: &[Tier]) -> String {
         [t] => format!("tier {t}"),
         ts => format!("tiers {}", ts.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(", ")),
     }
-}
-
-fn rate(episodes: &[&Episode], outcome: Outcome) -> f64 {
-    if episodes.is_empty() {
-        return f64::NAN;
-    }
-    episodes.iter().filter(|e| e.outcome == outcome).count() as f64 / episodes.len() as f64
-}
-
-fn mean_of(episodes: &[&Episode], f: impl Fn(&Episode) -> f64) -> f64 {
-    mean(&episodes.iter().map(|e| f(e)).collect::<Vec<_>>())
 }
 
 // ---------------------------------------------------------------------------
@@ -208,7 +199,9 @@ fn leader_row(m: &ModelData, scenarios: &[ScenarioKind], tiers: &[Tier], resampl
                 || cell_success_ci(&values, resamples, base, s.name(), tiers[0].number()),
                 |seed| success_ci(&values, resamples, seed),
             ),
-            decision_correctness: mean_of(&eps, |e| e.decision_correctness),
+            decision_correctness: mean_of(&eps.iter().map(|e| &e.scalars).collect::<Vec<_>>(), |e| {
+                e.decision_correctness
+            }),
         }));
     }
     // Clusters: seeds, jointly across scenarios (and tiers).
@@ -391,18 +384,15 @@ impl Leaderboard {
 // ---------------------------------------------------------------------------
 // Per tier
 
+/// One (model, scenario, tier): the cell's figures, as eval's summary has
+/// them, and the reference policies' success on the same cell.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TierRow {
     pub model: String,
     pub scenario: ScenarioKind,
     pub tier: Tier,
-    pub seeds: usize,
-    pub episodes: usize,
-    pub success: Interval,
-    pub collision: f64,
-    pub timeout: f64,
-    pub reward: f64,
-    pub decision_correctness: f64,
+    #[serde(flatten)]
+    pub metrics: CellMetrics,
     pub expert: Option<f64>,
     pub floor: Option<f64>,
 }
@@ -415,20 +405,13 @@ pub(crate) fn tier_rows(models: &[&ModelData], refs: &References, resamples: usi
         .filter(|(m, s, t)| m.episodes.iter().any(|e| e.scenario == *s && e.tier == *t))
         .collect();
     par_map(&cells, |&(m, s, t)| {
-        let us: Vec<Unit> = units(&m.episodes, &[t]).into_iter().filter(|u| u.scenario == s).collect();
-        let eps: Vec<&Episode> = us.iter().flat_map(|u| &m.episodes[u.start..u.end]).collect();
-        let values: Vec<f64> = us.iter().map(Unit::value).collect();
+        let eps: Vec<&EpisodeScalars> =
+            m.episodes.iter().filter(|e| e.scenario == s && e.tier == t).map(|e| &e.scalars).collect();
         TierRow {
             model: m.label.clone(),
             scenario: s,
             tier: t,
-            seeds: us.len(),
-            episodes: eps.len(),
-            success: cell_success_ci(&values, resamples, base, s.name(), t.number()),
-            collision: rate(&eps, Outcome::Collision),
-            timeout: rate(&eps, Outcome::Timeout),
-            reward: mean_of(&eps, |e| e.reward),
-            decision_correctness: mean_of(&eps, |e| e.decision_correctness),
+            metrics: CellMetrics::of(&eps, s, t, resamples, base),
             expert: refs.success(CEILING, s, &[t]),
             floor: refs.success(FLOOR, s, &[t]),
         }
@@ -439,39 +422,32 @@ pub(crate) fn tier_table(rows: &[TierRow]) -> Table {
     let mut t = Table::new(
         "tiers",
         "Per tier: success with 95% CI, outcome rates, reward and decision correctness",
-        vec![
-            Column::new("model", "model"),
-            Column::new("scenario", "scenario"),
-            Column::new("tier", "tier"),
-            Column::data("seeds"),
-            Column::new("n", "episodes"),
-            Column::new("success [95% CI]", "success").style(Style::Interval),
-            Column::new("collision", "collision"),
-            Column::new("timeout", "timeout"),
-            Column::new("reward", "reward"),
-            Column::new("DC", "decision_correctness"),
-            Column::new("expert", "expert"),
-            Column::new("floor", "always_proceed"),
-        ],
+        [
+            vec![
+                Column::new("model", "model"),
+                Column::new("scenario", "scenario"),
+                Column::new("tier", "tier"),
+                Column::data("seeds"),
+                Column::new("n", "episodes"),
+            ],
+            crate::metrics::outcome_columns("DC"),
+            vec![Column::new("expert", "expert"), Column::new("floor", "always_proceed")],
+        ]
+        .concat(),
     );
     for r in rows {
-        t.push(vec![
+        let c = &r.metrics;
+        let head = [
             Cell::text(&r.model),
             Cell::text(r.scenario.to_string()),
             Cell::Int(r.tier.number().into()),
-            Cell::Int(r.seeds as u64),
-            Cell::Int(r.episodes as u64),
-            Cell::Interval(r.success),
-            Cell::Float(r.collision),
-            Cell::Float(r.timeout),
-            Cell::Float(r.reward),
-            Cell::Float(r.decision_correctness),
-            Cell::opt(r.expert),
-            Cell::opt(r.floor),
-        ]);
+            Cell::Int(c.seeds as u64),
+            Cell::Int(c.episodes as u64),
+        ];
+        t.push([head.to_vec(), c.outcome_cells(), vec![Cell::opt(r.expert), Cell::opt(r.floor)]].concat());
     }
     t.note("n: episodes. DC: decision correctness. expert / floor: the reference policies' success on the same cell.");
-    if rows.iter().any(|r| r.success.estimate == 0.0 || r.success.estimate == 1.0) {
+    if rows.iter().any(|r| r.metrics.success.estimate == 0.0 || r.metrics.success.estimate == 1.0) {
         t.note(WILSON_NOTE);
     }
     t
@@ -485,18 +461,19 @@ pub struct OutcomeRow {
     pub model: String,
     pub scenario: ScenarioKind,
     pub episodes: usize,
-    pub success: f64,
-    pub collision: f64,
-    pub timeout: f64,
+    pub success_rate: f64,
+    pub collision_rate: f64,
+    pub timeout_rate: f64,
     pub decision_correctness: f64,
-    pub reward: f64,
+    pub mean_reward: f64,
 }
 
 pub(crate) fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<OutcomeRow> {
     let mut out = Vec::new();
     for m in models {
         for s in ScenarioKind::ALL {
-            let eps: Vec<&Episode> = m.episodes.iter().filter(|e| e.scenario == s && tiers.contains(&e.tier)).collect();
+            let eps: Vec<&EpisodeScalars> =
+                m.episodes.iter().filter(|e| e.scenario == s && tiers.contains(&e.tier)).map(|e| &e.scalars).collect();
             if eps.is_empty() {
                 continue;
             }
@@ -504,11 +481,11 @@ pub(crate) fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<Outcome
                 model: m.label.clone(),
                 scenario: s,
                 episodes: eps.len(),
-                success: rate(&eps, Outcome::Success),
-                collision: rate(&eps, Outcome::Collision),
-                timeout: rate(&eps, Outcome::Timeout),
+                success_rate: outcome_rate(&eps, Outcome::Success),
+                collision_rate: outcome_rate(&eps, Outcome::Collision),
+                timeout_rate: outcome_rate(&eps, Outcome::Timeout),
                 decision_correctness: mean_of(&eps, |e| e.decision_correctness),
-                reward: mean_of(&eps, |e| e.reward),
+                mean_reward: mean_of(&eps, |e| e.reward),
             });
         }
     }
@@ -523,12 +500,12 @@ pub(crate) fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier]) -> Table {
             Column::new("model", "model"),
             Column::new("scenario", "scenario"),
             Column::new("n", "episodes"),
-            Column::new("success", "success"),
-            Column::new("collision", "collision"),
-            Column::new("timeout", "timeout"),
+            Column::new("success", "success_rate"),
+            Column::new("collision", "collision_rate"),
+            Column::new("timeout", "timeout_rate"),
             Column::new("DC", "decision_correctness"),
             Column::display("DC - success").style(Style::Signed),
-            Column::new("reward", "reward"),
+            Column::new("reward", "mean_reward"),
         ],
     );
     for r in rows {
@@ -536,12 +513,12 @@ pub(crate) fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier]) -> Table {
             Cell::text(&r.model),
             Cell::text(r.scenario.to_string()),
             Cell::Int(r.episodes as u64),
-            Cell::Float(r.success),
-            Cell::Float(r.collision),
-            Cell::Float(r.timeout),
+            Cell::Float(r.success_rate),
+            Cell::Float(r.collision_rate),
+            Cell::Float(r.timeout_rate),
             Cell::Float(r.decision_correctness),
-            Cell::Float(r.decision_correctness - r.success),
-            Cell::Float(r.reward),
+            Cell::Float(r.decision_correctness - r.success_rate),
+            Cell::Float(r.mean_reward),
         ]);
     }
     t.note("DC - success > 0: right calls that did not become successes (typically over-caution ending in a timeout).");

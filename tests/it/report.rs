@@ -960,8 +960,8 @@ fn end_to_end_report_files_and_offline_html() {
     let errors = std::fs::read_to_string(root.join("runs/always_proceed/errors.jsonl")).unwrap_or_default();
     assert_eq!(cost["infra_errors"].as_u64().unwrap() as usize > 0, !errors.trim().is_empty());
 
-    // A (scenario, tier) cell's interval is the one in eval's summary, with 1 and with 2 rollouts per seed
-    // (both bootstrap over seeds with the cell's seed), and eval prints n as seeds x rollouts.
+    // A (scenario, tier) cell's figures are the ones in eval's summary, with 1 and with 2 rollouts per seed
+    // (the interval bootstraps over seeds with the cell's seed), and eval prints n as seeds x rollouts.
     for model in ["expert", "always_proceed"] {
         let path = root.join(format!("runs/{model}/summary.json"));
         let summary: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
@@ -972,8 +972,25 @@ fn end_to_end_report_files_and_offline_html() {
                 .iter()
                 .find(|r| r["model"] == model && r["scenario"] == cell["scenario"] && r["tier"] == cell["tier"])
                 .unwrap();
-            assert_eq!(row["success"], cell["success"], "{model} {}", cell["scenario"]);
-            assert_eq!(row["seeds"], cell["seeds"], "{model} {}", cell["scenario"]);
+            // One computation, one set of names: every figure of the cell is eval's.
+            for figure in [
+                "episodes",
+                "seeds",
+                "rollouts",
+                "success",
+                "collision_rate",
+                "timeout_rate",
+                "mean_reward",
+                "decision_correctness",
+                "guess_rate",
+                "evidence_lag",
+                "parse_error_rate",
+                "truncated_rate",
+                "tokens_per_episode",
+            ] {
+                assert!(!cell[figure].is_null() || figure.ends_with("lag"), "{figure} in summary.json");
+                assert_eq!(row[figure], cell[figure], "{model} {} {figure}", cell["scenario"]);
+            }
         }
     }
 

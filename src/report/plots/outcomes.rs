@@ -32,9 +32,9 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
             if let Some(r) = input.outcomes.iter().find(|r| r.model == m.label && r.scenario == *s) {
                 let mut x = label_w;
                 for (v, c, l) in [
-                    (r.success, SUCCESS_COLOR, "success"),
-                    (r.collision, COLLISION_COLOR, "collision"),
-                    (r.timeout, TIMEOUT_COLOR, "timeout"),
+                    (r.success_rate, SUCCESS_COLOR, "success"),
+                    (r.collision_rate, COLLISION_COLOR, "collision"),
+                    (r.timeout_rate, TIMEOUT_COLOR, "timeout"),
                 ] {
                     let w = if v.is_finite() { v * bar_w } else { 0.0 };
                     let tip = format!("{} on {s}: {l} {:.0}% of {} episodes", m.label, v * 100.0, r.episodes);

@@ -44,7 +44,7 @@ fn value_of(input: &PlotInput, model: &str, a: &Axis) -> Option<f64> {
             .tiers
             .iter()
             .find(|r| r.model == model && r.scenario == a.scenario && r.tier == a.tiers[0])
-            .map(|r| r.success.estimate)
+            .map(|r| r.metrics.success.estimate)
     }
 }
 

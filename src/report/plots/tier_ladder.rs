@@ -69,13 +69,13 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         for (i, m) in models.iter().enumerate() {
             let rows: Vec<_> = input.tiers.iter().filter(|r| r.model == m.label && r.scenario == s).collect();
             let pts: Vec<(f64, f64)> =
-                rows.iter().map(|r| (xs(x0, r.tier) + spread(i), y(r.success.estimate))).collect();
+                rows.iter().map(|r| (xs(x0, r.tier) + spread(i), y(r.metrics.success.estimate))).collect();
             svg.polyline(&pts, m.color, 2.0, None);
             for (r, &(px, py)) in rows.iter().zip(&pts) {
-                if r.success.lo.is_finite() && r.success.hi.is_finite() {
-                    svg.line(px, y(r.success.lo), px, y(r.success.hi), m.color, 1.4, None);
+                if r.metrics.success.lo.is_finite() && r.metrics.success.hi.is_finite() {
+                    svg.line(px, y(r.metrics.success.lo), px, y(r.metrics.success.hi), m.color, 1.4, None);
                 }
-                let tip = format!("{}, {s} tier {}: {}", m.label, r.tier, with_ci(&r.success));
+                let tip = format!("{}, {s} tier {}: {}", m.label, r.tier, with_ci(&r.metrics.success));
                 svg.marker(m.shape, px, py, 3.5, m.color, INK, Some(&tip));
             }
         }
