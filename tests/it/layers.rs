@@ -227,3 +227,55 @@ fn front_ends_do_not_import_each_other() {
     planted.get_mut("play").unwrap().insert("serve".to_string());
     assert_eq!(front_end_crossings(&planted), ["envserver -> eval", "play -> serve"]);
 }
+
+/// The functions of `text` (rustfmt's layout: a body closes with `}` at the
+/// indentation of its `fn` line) longer than `limit` lines, as (name, first
+/// line, lines).
+fn long_functions(text: &str, limit: usize) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let indent = |l: &str| l.len() - l.trim_start().len();
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let head = line.trim_start();
+        let head = head.strip_prefix("pub ").or_else(|| head.strip_prefix("pub(crate) ")).unwrap_or(head);
+        let head = head.strip_prefix("pub(super) ").unwrap_or(head);
+        let head = head.strip_prefix("async ").unwrap_or(head);
+        let head = head.strip_prefix("const ").unwrap_or(head);
+        let Some(rest) = head.strip_prefix("fn ") else { continue };
+        let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let at = indent(line);
+        let end = lines[i + 1..]
+            .iter()
+            .position(|l| !l.trim().is_empty() && indent(l) <= at)
+            .map_or(lines.len(), |k| i + 1 + k);
+        // A declaration without a body (`fn f();` in a trait) ends on its line.
+        let length = if line.trim_end().ends_with(';') { 1 } else { end - i + 1 };
+        if length > limit {
+            out.push((name, i + 1, length));
+        }
+    }
+    out
+}
+
+/// No function in the crate is longer than 120 lines: a longer one does
+/// several things, and each gets a name.
+#[test]
+fn no_function_is_longer_than_120_lines() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = vec![src.clone()];
+    let mut long = Vec::new();
+    while let Some(path) = files.pop() {
+        if path.is_dir() {
+            files.extend(std::fs::read_dir(&path).unwrap().map(|e| e.unwrap().path()));
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            for (name, line, length) in long_functions(&std::fs::read_to_string(&path).unwrap(), 120) {
+                long.push(format!("{}:{line} {name} ({length} lines)", path.strip_prefix(&src).unwrap().display()));
+            }
+        }
+    }
+    assert!(long.is_empty(), "functions over 120 lines: {long:?}");
+    // A planted long function is caught, a short one and a bodiless one are not.
+    let body = "    let x = 1;\n".repeat(121);
+    let planted = format!("fn short() {{\n}}\n\nfn f();\n\npub(crate) fn long() {{\n{body}}}\n");
+    assert_eq!(long_functions(&planted, 120), [("long".to_string(), 6, 123)]);
+}
