@@ -9,13 +9,13 @@
 //! new run instead of mixing two. `--run-name NAME` picks the directory name
 //! explicitly; an existing run there with another configuration is refused.
 
-use super::{RefusedError, exit, parse_list, usage};
+use super::{exit, parse_list, usage};
 use crate::belief::Probe;
+use crate::eval::EvalOptions;
 use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias};
 use crate::eval::events::{Reporter, StopReason};
 use crate::eval::prices::Prices;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
-use crate::eval::{EvalError, EvalOptions};
 use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
 use crate::rundir::sanitize_name;
@@ -323,8 +323,6 @@ impl EvalArgs {
                 )));
             }
         };
-        // Before anything can echo it: userinfo in the URL is a credential.
-        crate::redact::register_url_userinfo(&base_url);
         let parsed_url = reqwest::Url::parse(&base_url).map_err(|e| usage(format!("--base-url '{base_url}': {e}")))?;
         if !matches!(parsed_url.scheme(), "http" | "https") {
             return Err(usage(format!("--base-url '{base_url}': expected an http or https URL")));
@@ -347,9 +345,6 @@ impl EvalArgs {
         });
         for kv in endpoint_headers.into_iter().map(Ok).chain(flag_headers) {
             let (k, v) = kv?;
-            // Header values are never recorded; scrub them wherever an
-            // endpoint echoes them back.
-            crate::redact::register_secret(&v);
             let name = HeaderName::from_bytes(k.as_bytes())
                 .map_err(|_| usage(format!("--header: invalid header name '{k}'")))?;
             let mut value =
@@ -432,13 +427,9 @@ impl EvalArgs {
     fn selection(&self) -> anyhow::Result<Selection> {
         let shard: Shard = match self.shard.as_deref().map(str::trim) {
             Some("auto") => {
-                let (shard, source) =
-                    crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
-                        .map_err(usage)?;
-                if !self.quiet {
-                    crate::redact::eline!("shard {shard} (from the {source})");
-                }
-                shard
+                crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
+                    .map_err(usage)?
+                    .0
             }
             Some(s) => s.parse().map_err(|e| usage(format!("--shard: {e}")))?,
             None => Shard::WHOLE,
@@ -502,6 +493,12 @@ impl EvalArgs {
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let options = self.options()?;
+        register_secrets(&options);
+        if !self.quiet && self.shard.as_deref().map(str::trim) == Some("auto") {
+            let source = crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
+                .map_or_else(|_| String::new(), |(_, source)| source.to_string());
+            crate::redact::eline!("shard {} (from the {source})", options.selection.shard);
+        }
         if self.dry_run {
             return self.dry_run(&options);
         }
@@ -515,15 +512,9 @@ impl EvalArgs {
             .iter()
             .find_map(|f| options.config.request_params.get(*f).and_then(Value::as_u64).map(|n| (*f, n)));
         let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-        let outcome = match runtime.block_on(crate::eval::run(options, reporter.as_mut())) {
-            Ok(o) => o,
-            Err(EvalError::Refused(msg)) => return Err(RefusedError(msg).into()),
-            Err(EvalError::BadParameter(msg)) => return Err(usage(msg)),
-            Err(EvalError::Store(e @ crate::eval::store::StoreError::ConfigChanged { .. })) => {
-                return Err(usage(e.to_string()));
-            }
-            Err(e) => return Err(e.into()),
-        };
+        // Whether an error is a refusal or bad input is decided in one place
+        // (`super::exit_code_for`).
+        let outcome = runtime.block_on(crate::eval::run(options, reporter.as_mut()))?;
         crate::redact::term::out(&crate::eval::summary::render(&outcome.summary));
         crate::redact::term::out(&format!("results: {}\n", outcome.run_dir.display()));
         if let Some(StopReason::Truncation { truncated, turns }) = outcome.stop {
@@ -577,15 +568,26 @@ impl EvalArgs {
     }
 }
 
+/// Every credential the options hold, registered with the redactor before
+/// anything is sent or printed: the URL's userinfo, the header values (never
+/// recorded; scrubbed wherever an endpoint echoes them back), the key.
+fn register_secrets(options: &EvalOptions) {
+    crate::redact::register_url_userinfo(&options.client.base_url);
+    for value in options.client.headers.values() {
+        if let Ok(v) = value.to_str() {
+            crate::redact::register_secret(v.trim());
+        }
+    }
+    if let Some(key) = &options.client.api_key {
+        crate::redact::register_secret(key);
+    }
+}
+
 /// The API key from the variable `var` names (required when named).
 fn api_key(var: Option<&str>) -> anyhow::Result<Option<String>> {
     let Some(var) = var else { return Ok(None) };
     match std::env::var(var) {
-        Ok(v) if !v.trim().is_empty() => {
-            // Before anything can echo it back.
-            crate::redact::register_secret(v.trim());
-            Ok(Some(v.trim().to_string()))
-        }
+        Ok(v) if !v.trim().is_empty() => Ok(Some(v.trim().to_string())),
         _ => Err(usage(format!(
             "the API key variable ${var} is not set (export {var}=... or choose another with --api-key-var)"
         ))),

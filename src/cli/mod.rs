@@ -34,11 +34,6 @@ pub mod exit {
 #[error("{0}")]
 pub struct UsageError(pub String);
 
-/// The endpoint refused the run: exit code 3.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct RefusedError(pub String);
-
 pub fn usage(msg: impl Into<String>) -> anyhow::Error {
     UsageError(msg.into()).into()
 }
@@ -87,14 +82,33 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// Exit code for an error that reached `main`.
+/// Exit code for an error that reached `main`. The one place that decides
+/// which errors are the user's input (exit 2) or the endpoint's refusal (3):
+/// the first error of the chain with a verdict decides; anything else is 4.
 pub fn exit_code_for(e: &anyhow::Error) -> u8 {
-    if e.chain().any(|c| c.is::<UsageError>() || c.is::<crate::scenario::ScenarioError>()) {
-        exit::USAGE
-    } else if e.chain().any(|c| c.is::<RefusedError>()) {
-        exit::REFUSED
-    } else {
-        exit::ERROR
+    e.chain().find_map(verdict).unwrap_or(exit::ERROR)
+}
+
+/// What one error says of the exit code: bad input, a refusal, or nothing
+/// (an I/O failure or an internal error, or an error that wraps the one
+/// that decides).
+fn verdict(e: &(dyn std::error::Error + 'static)) -> Option<u8> {
+    use crate::eval::{EvalError, store::StoreError};
+    use crate::inspect_log::InspectLogError;
+    use crate::report::ReportError;
+    if e.is::<UsageError>() || e.is::<crate::scenario::ScenarioError>() {
+        return Some(exit::USAGE);
+    }
+    if let Some(r) = e.downcast_ref::<ReportError>() {
+        return (!matches!(r, ReportError::Io { .. } | ReportError::Pdf { .. })).then_some(exit::USAGE);
+    }
+    if let Some(i) = e.downcast_ref::<InspectLogError>() {
+        return (!matches!(i, InspectLogError::Io { .. } | InspectLogError::RunDir(_))).then_some(exit::USAGE);
+    }
+    match e.downcast_ref::<EvalError>()? {
+        EvalError::Refused(_) => Some(exit::REFUSED),
+        EvalError::BadParameter(_) | EvalError::Store(StoreError::ConfigChanged { .. }) => Some(exit::USAGE),
+        _ => None,
     }
 }
 
@@ -140,4 +154,41 @@ async fn bind_and_announce(host: &str, port: u16, path: &str) -> std::io::Result
     let host = if addr.is_ipv6() { format!("[{}]", addr.ip()) } else { addr.ip().to_string() };
     crate::redact::term::out(&format!("listening on http://{host}:{}{path}\n", addr.port()));
     Ok(listener)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::EvalError;
+    use crate::eval::store::StoreError;
+    use crate::inspect_log::InspectLogError;
+    use crate::report::ReportError;
+
+    fn io() -> std::io::Error {
+        std::io::Error::other("disk on fire")
+    }
+
+    /// One decision for every command: bad input is 2, a refusal 3, any
+    /// other failure 4, whichever module's error it is and however wrapped.
+    #[test]
+    fn the_exit_code_is_decided_once_for_every_kind_of_error() {
+        let cases: Vec<(anyhow::Error, u8)> = vec![
+            (usage("--tier: '4' is not a tier"), exit::USAGE),
+            (ReportError::MissingDir("x".into()).into(), exit::USAGE),
+            (ReportError::Io { path: "x".into(), source: io() }.into(), exit::ERROR),
+            (InspectLogError::OutputTaken { dir: "x".into() }.into(), exit::USAGE),
+            (InspectLogError::Io { path: "x".into(), source: io() }.into(), exit::ERROR),
+            (EvalError::Refused("401".into()).into(), exit::REFUSED),
+            (EvalError::BadParameter("top_k".into()).into(), exit::USAGE),
+            (EvalError::Store(StoreError::ConfigChanged { dir: "d".into(), changes: "c".into() }).into(), exit::USAGE),
+            (EvalError::Store(StoreError::Locked { dir: "d".into() }).into(), exit::ERROR),
+            (EvalError::Task("panicked".into()).into(), exit::ERROR),
+            (anyhow::Error::new(io()), exit::ERROR),
+        ];
+        for (e, code) in cases {
+            assert_eq!(exit_code_for(&e), code, "{e:#}");
+            let wrapped = e.context("while doing something");
+            assert_eq!(exit_code_for(&wrapped), code, "{wrapped:#}");
+        }
+    }
 }

@@ -7,7 +7,7 @@ use super::{parse_list, usage};
 use crate::export::Format;
 use crate::report::pick::BadPick;
 use crate::report::plots::Style;
-use crate::report::{self, MIN_RESAMPLES, ReportError, ReportOptions};
+use crate::report::{self, MIN_RESAMPLES, ReportOptions};
 use crate::scenario::Tier;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -130,11 +130,9 @@ impl ReportArgs {
         // Inspect logs are read as the run directories they import to, in a
         // scratch directory that lives as long as the report is built.
         let scratch = Scratch::new();
-        opts.dirs =
-            crate::inspect_log::import_inputs(&opts.dirs, &scratch.0).map_err(super::import_inspect::input_error)?;
-        let input = |e: ReportError| if e.is_input() { usage(e.to_string()) } else { anyhow::Error::new(e) };
-        let built = report::build(&opts).map_err(input)?;
-        let written = report::write(&built, &self.out).map_err(input)?;
+        opts.dirs = crate::inspect_log::import_inputs(&opts.dirs, &scratch.0)?;
+        let built = report::build(&opts)?;
+        let written = report::write(&built, &self.out)?;
         if !self.quiet {
             let r = &built.report;
             // Every format renders the same tables through the one table model.

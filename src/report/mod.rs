@@ -67,13 +67,6 @@ pub enum ReportError {
     Pdf { path: String, source: pdf::PdfError },
 }
 
-impl ReportError {
-    /// Bad input (exit code 2), as opposed to an I/O failure.
-    pub(crate) fn is_input(&self) -> bool {
-        !matches!(self, ReportError::Io { .. } | ReportError::Pdf { .. })
-    }
-}
-
 #[derive(Debug, Clone)]
 pub struct ReportOptions {
     /// Run directories, or directories holding run directories.
