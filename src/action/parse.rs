@@ -304,8 +304,9 @@ struct Scan<'a> {
     /// Text after the last `</think>` (the whole reply if none), when the
     /// reply does not end inside a think block.
     answer_region: Option<&'a str>,
-    /// Bytes read by all parse attempts (tests check it stays linear).
-    #[cfg_attr(not(test), allow(dead_code))]
+    /// Bytes read by all parse attempts: counted in tests only, which check
+    /// that it stays linear (the cap above is `failed_work`'s).
+    #[cfg(test)]
     work: usize,
 }
 
@@ -371,6 +372,7 @@ fn scan(text: &str) -> Scan<'_> {
     // truncated reply) and is no answer.
     let mut failed_reach = 0;
     let mut failed_work = 0usize;
+    #[cfg(test)]
     let mut work = 0usize;
     let work_budget = b.len().saturating_mul(FAILED_WORK_FACTOR).saturating_add(FAILED_WORK_SLACK);
     let mut in_think = starts_in_think(b);
@@ -402,7 +404,10 @@ fn scan(text: &str) -> Scan<'_> {
                 object_starts.clear();
                 let mut reader = Reader { s: text, b, pos: i, object_starts: &mut object_starts };
                 let outcome = reader.top_object();
-                work = work.saturating_add(reader.pos.saturating_sub(i) + 1);
+                #[cfg(test)]
+                {
+                    work = work.saturating_add(reader.pos.saturating_sub(i) + 1);
+                }
                 match outcome {
                     Ok(fields) => {
                         if reader.pos > failed_reach {
@@ -429,7 +434,14 @@ fn scan(text: &str) -> Scan<'_> {
     }
 
     let answer_region = if unclosed_think { None } else { text.get(after_think..) };
-    Scan { candidates, best_failure, unclosed_think, answer_region, work }
+    Scan {
+        candidates,
+        best_failure,
+        unclosed_think,
+        answer_region,
+        #[cfg(test)]
+        work,
+    }
 }
 
 /// If the answer (fences stripped) is one complete JSON value that is not
@@ -471,11 +483,10 @@ fn strip_fence(s: &str) -> &str {
 }
 
 // ---------------------------------------------------------------------------
-// A small JSON reader. serde_json is not used here because its default
-// float parsing is best-effort (exact only with its `float_roundtrip`
-// feature), it rejects trailing commas,
-// and overflowing numbers (1e309) make the whole document an error instead
-// of an out-of-range field.
+// A small JSON reader. serde_json is not used here because it rejects
+// trailing commas, and an overflowing number (1e309) makes the whole
+// document an error instead of one out-of-range field. Numbers are kept as
+// their text and read with Rust's exact `f64` parsing.
 
 /// serde_json's recursion limit.
 const MAX_DEPTH: usize = 128;

@@ -38,13 +38,6 @@ impl ScenarioKind {
     pub const ALL: [ScenarioKind; 3] =
         [ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge];
 
-    /// A scenario from its definition (one not in [`ScenarioKind::ALL`],
-    /// such as a test's, plays as well; it is only not found by name).
-    #[cfg_attr(not(test), allow(dead_code))] // only a test's scenario needs it
-    pub(crate) const fn of(def: &'static ScenarioDef) -> ScenarioKind {
-        ScenarioKind(def)
-    }
-
     /// The scenario's definition: the one place its facts are read from.
     pub(crate) fn def(self) -> &'static ScenarioDef {
         self.0
@@ -625,7 +618,7 @@ impl ScenarioSet {
     /// The parameters in force for `kind`. A set holds every scenario of
     /// [`ScenarioKind::ALL`] and any other put in with
     /// [`ScenarioSet::replace`], and a scenario outside `ALL` is only made
-    /// inside the crate (`ScenarioKind::of`), so a miss is a bug.
+    /// inside the scenario module (a test's toy), so a miss is a bug.
     pub fn get(&self, kind: ScenarioKind) -> &ScenarioConfig {
         self.configs.iter().find(|c| c.kind() == kind).expect("a scenario set holds every scenario it is asked for")
     }

@@ -152,7 +152,7 @@ impl World for ToyWorld {
 
     fn observe(&mut self, ego: &Body) -> Scene {
         let now = Sample { position_m: -HALF_ZONE - self.car.s, velocity_mps: self.car.v };
-        Scene::new(ScenarioKind::of(&DEF), &[-HALF_ZONE - ego.s], &[self.history.track(now)]).expect("the toy's layout")
+        Scene::new(ScenarioKind(&DEF), &[-HALF_ZONE - ego.s], &[self.history.track(now)]).expect("the toy's layout")
     }
 
     fn revealed(&self) -> bool {
@@ -182,7 +182,7 @@ impl World for ToyWorld {
 /// The toy's parameters, from its TOML.
 fn config() -> ScenarioConfig {
     let (path, text) = DEF.builtin_file;
-    ScenarioConfig::for_scenario(ScenarioKind::of(&DEF), path, text).expect("the toy's TOML is valid")
+    ScenarioConfig::for_scenario(ScenarioKind(&DEF), path, text).expect("the toy's TOML is valid")
 }
 
 // The whole module is test-only; marking the tests too keeps their imports
@@ -227,7 +227,7 @@ mod tests {
         assert_eq!(config.kind().name(), "toy_crossing");
         assert_eq!(config.common().turn_budget.get(Tier::T1), 30);
         let bad = TOML.replace("stop_line_m = 1.0", "stop_line_m = 9.0");
-        let e = ScenarioConfig::for_scenario(ScenarioKind::of(&DEF), "toy.toml", &bad).unwrap_err().to_string();
+        let e = ScenarioConfig::for_scenario(ScenarioKind(&DEF), "toy.toml", &bad).unwrap_err().to_string();
         assert!(e.starts_with("toy.toml: car.stop_line_m: must lie in [0, 5]"), "{e}");
         // Not one of the benchmark's scenarios: not found by name.
         assert!("toy_crossing".parse::<ScenarioKind>().is_err());
