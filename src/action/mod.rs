@@ -1,6 +1,7 @@
 //! The ego's action: what a policy (or a language model) answers each turn,
 //! and how it maps to the longitudinal controller.
 
+mod json;
 mod parse;
 
 pub use parse::{ActionParseError, BeliefParseError, ParsedAction, parse_action, parse_belief};
