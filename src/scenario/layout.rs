@@ -3,7 +3,7 @@
 //! user's lateral frame. The report's figures and the drill-down read it
 //! through [`super::ScenarioKind::plan_axes`].
 
-/// The plan-view reading of a scenario (see [`ScenarioKind::plan_axes`]).
+/// The plan-view reading of a scenario (see [`super::ScenarioKind::plan_axes`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanAxes {
     /// The ego progresses along y (else x).
