@@ -212,8 +212,9 @@ struct Target {
 
 impl EvalArgs {
     /// Validate the flags into options, one concern per step (in the order
-    /// the flags' errors are reported). Errors are usage errors (exit 2).
-    pub fn options(&self) -> anyhow::Result<EvalOptions> {
+    /// the flags' errors are reported), and where `--shard auto` found the
+    /// shard (for the line `run` prints). Errors are usage errors (exit 2).
+    pub fn options(&self) -> anyhow::Result<(EvalOptions, Option<String>)> {
         let target = self.target()?;
         let api_key_var =
             self.api_key_var.clone().or_else(|| target.endpoint.as_ref().and_then(|e| e.api_key_env.clone()));
@@ -225,7 +226,7 @@ impl EvalArgs {
         let headers = self.headers(target.endpoint.as_ref())?;
         let built = self.request_params(&target)?;
         let history = self.history;
-        let selection = self.selection()?;
+        let (selection, shard_source) = self.selection()?;
         if self.concurrency == 0 {
             return Err(usage("-c: must be at least 1"));
         }
@@ -249,7 +250,7 @@ impl EvalArgs {
             max_backoff: positive_secs(self.backoff_max, "--backoff-max")?,
             ..RetryPolicy::default()
         };
-        Ok(EvalOptions {
+        let options = EvalOptions {
             config,
             client: ClientConfig {
                 base_url: target.base_url.trim_end_matches('/').to_string(),
@@ -274,7 +275,8 @@ impl EvalArgs {
             allow_truncation: self.allow_truncation,
             trajectories: !self.no_trajectories,
             interrupt: None,
-        })
+        };
+        Ok((options, shard_source))
     }
 
     /// The endpoints file, then the model (an alias names an endpoint and
@@ -423,16 +425,17 @@ impl EvalArgs {
         Ok(Some(usd))
     }
 
-    /// Which episodes to play.
-    fn selection(&self) -> anyhow::Result<Selection> {
-        let shard: Shard = match self.shard.as_deref().map(str::trim) {
+    /// Which episodes to play, and where `--shard auto` found the shard.
+    fn selection(&self) -> anyhow::Result<(Selection, Option<String>)> {
+        let (shard, source): (Shard, Option<String>) = match self.shard.as_deref().map(str::trim) {
             Some("auto") => {
-                crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
-                    .map_err(usage)?
-                    .0
+                let (shard, source) =
+                    crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
+                        .map_err(usage)?;
+                (shard, Some(source))
             }
-            Some(s) => s.parse().map_err(|e| usage(format!("--shard: {e}")))?,
-            None => Shard::WHOLE,
+            Some(s) => (s.parse().map_err(|e| usage(format!("--shard: {e}")))?, None),
+            None => (Shard::WHOLE, None),
         };
         let scenarios = parse_list(&self.scenario, &ScenarioKind::ALL, "--scenario")?;
         let tiers = parse_list(&self.tier, &Tier::ALL, "--tier")?;
@@ -455,7 +458,9 @@ impl EvalArgs {
                 super::MAX_EPISODES
             )));
         }
-        Ok(Selection { base_seed: self.seed, rollouts: self.rollouts, scenarios, seeds: self.seeds, shard, tiers })
+        let selection =
+            Selection { base_seed: self.seed, rollouts: self.rollouts, scenarios, seeds: self.seeds, shard, tiers };
+        Ok((selection, source))
     }
 
     /// `--max-reply-bytes`, between 1 KiB and 64 MiB.
@@ -492,11 +497,9 @@ impl EvalArgs {
     }
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
-        let options = self.options()?;
+        let (options, shard_source) = self.options()?;
         register_secrets(&options);
-        if !self.quiet && self.shard.as_deref().map(str::trim) == Some("auto") {
-            let source = crate::eval::shard_auto::shard_from_scheduler(|k| std::env::var(k).ok(), self.shard_count)
-                .map_or_else(|_| String::new(), |(_, source)| source.to_string());
+        if let Some(source) = shard_source.filter(|_| !self.quiet) {
             crate::redact::eline!("shard {} (from the {source})", options.selection.shard);
         }
         if self.dry_run {
