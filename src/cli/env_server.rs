@@ -104,13 +104,8 @@ impl EnvServerArgs {
 
     pub fn run(self) -> anyhow::Result<ExitCode> {
         let config = self.config()?;
-        let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let state = Arc::new(EnvServerState::new(config));
-        let served = runtime.block_on(async {
-            let listener = super::bind_and_announce(&self.host, self.port, "").await?;
-            crate::envserver::run(listener, state.clone()).await
-        });
-        served.map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;
+        super::serve_on(&self.host, self.port, "", |listener| crate::envserver::run(listener, state.clone()))?;
         let s = &state.stats;
         eline!(
             "served {} sessions ({} refused at capacity, {} expired idle): {} steps, {} episodes finished, {} errors",

@@ -145,6 +145,24 @@ where
 /// allocated.
 pub const MAX_EPISODES: u64 = 1_000_000;
 
+/// How both servers (`serve`, `env-server`) start: a multi-threaded
+/// runtime, the address bound and announced, then `serve` on the listener
+/// until it returns (at shutdown). An error names the address.
+fn serve_on<T, F>(
+    host: &str,
+    port: u16,
+    path: &str,
+    serve: impl FnOnce(tokio::net::TcpListener) -> F,
+) -> anyhow::Result<T>
+where
+    F: std::future::Future<Output = std::io::Result<T>>,
+{
+    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    runtime
+        .block_on(async { serve(bind_and_announce(host, port, path).await?).await })
+        .map_err(|e| anyhow::anyhow!("serving on {host}:{port}: {e}"))
+}
+
 /// Bind a server's address and print `listening on http://HOST:PORT{path}`
 /// on stdout (the line scripts and tests read the port from; port 0 picks
 /// a free one).

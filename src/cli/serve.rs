@@ -108,13 +108,7 @@ impl ServeArgs {
             self.latency_ms,
             config.seed
         );
-        let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-        let state = runtime
-            .block_on(async {
-                let listener = super::bind_and_announce(&self.host, self.port, "/v1").await?;
-                crate::serve::serve(listener, config).await
-            })
-            .map_err(|e| anyhow::anyhow!("serving on {}:{}: {e}", self.host, self.port))?;
+        let state = super::serve_on(&self.host, self.port, "/v1", |listener| crate::serve::serve(listener, config))?;
         let s = &state.stats;
         crate::redact::eline!(
             "served {} requests: {} ok, {} failed, {} rate-limited, {} dropped, {} garbage, {} unreadable scenes, {} \

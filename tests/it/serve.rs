@@ -103,6 +103,23 @@ fn bad_flags_are_usage_errors() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--fail-rate"));
 }
 
+/// Both servers start the same way: a port already in use is one line
+/// naming the address, exit 4 (not the user's input, not a panic).
+#[test]
+fn a_taken_port_is_one_line_naming_the_address_for_both_servers() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port().to_string();
+    for args in [vec!["serve", "--policy", "expert"], vec!["env-server"]] {
+        let out = negotiator().args(&args).args(["--port", &port]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(4), "{args:?}: {stderr}");
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("Error:")).collect();
+        assert_eq!(errors.len(), 1, "{args:?}: {stderr}");
+        assert!(errors[0].starts_with(&format!("Error: serving on 127.0.0.1:{port}: ")), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
+
 /// `"stream": true` gets OpenAI's server-sent events: chunks whose deltas
 /// add up to the non-streamed reply, the usage last when asked for, then
 /// `[DONE]`.
