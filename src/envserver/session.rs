@@ -20,6 +20,8 @@ use schemars::JsonSchema;
 use serde::Serialize;
 use serde_json::{Map, Value, json};
 
+use super::request::{FieldError, FieldErrors};
+
 /// The scenario a reset without `scenario` plays: the benchmark's first.
 pub(crate) const DEFAULT_SCENARIO: ScenarioKind = ScenarioKind::ALL[0];
 /// The tier a reset without `tier` plays.
@@ -33,79 +35,6 @@ pub(crate) const MAX_EPISODE_ID_LEN: usize = 255;
 /// Longest reply read from an action, as `eval --max-reply-bytes`'s
 /// default: a longer one is a parse error (a firm stop), as in `eval`.
 pub(crate) const MAX_REPLY_BYTES: usize = crate::llm::DEFAULT_MAX_REPLY_BYTES;
-
-/// One problem with a message's fields, shaped like the validation errors
-/// OpenEnv's own server returns (pydantic's): where, what, and a kind.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub(crate) struct FieldError {
-    #[serde(rename = "type")]
-    pub kind: &'static str,
-    pub loc: Vec<String>,
-    pub msg: String,
-}
-
-impl FieldError {
-    fn new(kind: &'static str, field: &str, msg: impl Into<String>) -> FieldError {
-        FieldError {
-            kind,
-            loc: vec!["data".to_string(), clip(field).into_owned()],
-            msg: clip(&msg.into()).into_owned(),
-        }
-    }
-}
-
-/// At most this many field errors are listed in one reply; the rest are
-/// counted. An error reply never grows with the request that caused it.
-pub(crate) const MAX_LISTED_ERRORS: usize = 5;
-/// A field name or message echoed in an error is cut to this many bytes.
-pub(crate) const MAX_ECHO_BYTES: usize = 160;
-
-/// `text` cut to [`MAX_ECHO_BYTES`] (at a character boundary, marked by
-/// "..."): what an error may echo of a client's input.
-pub(crate) fn clip(text: &str) -> std::borrow::Cow<'_, str> {
-    if text.len() <= MAX_ECHO_BYTES {
-        return text.into();
-    }
-    let mut end = MAX_ECHO_BYTES;
-    while !text.is_char_boundary(end) {
-        end -= 1;
-    }
-    format!("{}...", &text[..end]).into()
-}
-
-/// The field errors of one request: the first [`MAX_LISTED_ERRORS`] listed,
-/// the others only counted (so a body of 100,000 unknown keys costs a
-/// counter, not a list), then one entry that says how many were left out.
-#[derive(Debug, Default)]
-pub(crate) struct FieldErrors {
-    listed: Vec<FieldError>,
-    omitted: usize,
-}
-
-impl FieldErrors {
-    pub(crate) fn push(&mut self, error: impl FnOnce() -> FieldError) {
-        if self.listed.len() < MAX_LISTED_ERRORS {
-            self.listed.push(error());
-        } else {
-            self.omitted += 1;
-        }
-    }
-
-    pub(crate) fn is_empty(&self) -> bool {
-        self.listed.is_empty()
-    }
-
-    pub(crate) fn into_list(mut self) -> Vec<FieldError> {
-        if self.omitted > 0 {
-            self.listed.push(FieldError {
-                kind: "too_many_errors",
-                loc: vec!["data".to_string()],
-                msg: format!("{} more errors not listed", self.omitted),
-            });
-        }
-        self.listed
-    }
-}
 
 /// Why a session refused a message. The session itself is unchanged.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -163,6 +92,9 @@ impl View {
         matches!(self, View::Full | View::Features)
     }
 }
+
+/// The fields a reset takes, all optional.
+pub(crate) const RESET_FIELDS: [&str; 5] = ["scenario", "tier", "seed", "view", "episode_id"];
 
 /// What a reset asks for, validated.
 #[derive(Debug, Clone, PartialEq)]
@@ -234,16 +166,10 @@ impl ResetRequest {
                         )
                     }),
                 },
-                _ => errors.push(|| {
-                    FieldError::new(
-                        "extra_forbidden",
-                        key,
-                        "unknown reset field (expected scenario, tier, seed, view, episode_id)",
-                    )
-                }),
+                _ => errors.push(|| FieldError::unknown(key, &RESET_FIELDS)),
             }
         }
-        if errors.is_empty() { Ok(request) } else { Err(SessionError::Invalid(errors.into_list())) }
+        errors.or(request).map_err(SessionError::Invalid)
     }
 }
 
@@ -268,11 +194,10 @@ fn tier_of(value: &Value) -> Option<Tier> {
 /// shape is refused (the session then stays where it was).
 pub(crate) fn read_action(data: &Value) -> Result<ParsedAction, SessionError> {
     let Some(fields) = data.as_object() else {
-        return Err(SessionError::Invalid(vec![FieldError {
-            kind: "dict_type",
-            loc: vec!["data".to_string()],
-            msg: "expected an object: {\"reply\": text} or the action's fields".to_string(),
-        }]));
+        return Err(SessionError::Invalid(vec![FieldError::whole(
+            "dict_type",
+            "expected an object: {\"reply\": text} or the action's fields",
+        )]));
     };
     let text = match fields.get("reply") {
         Some(Value::String(reply)) => {
@@ -551,7 +476,7 @@ mod tests {
         else {
             panic!("refused")
         };
-        let fields: Vec<&str> = errors.iter().map(|e| e.loc[1].as_str()).collect();
+        let fields: Vec<&str> = errors.iter().map(|e| e.loc[0].as_str()).collect();
         assert_eq!(fields, ["episode_id", "seed", "senario", "tier"]);
         for bad in [json!({"seed": 1.5}), json!({"seed": "3"}), json!({"scenario": 3}), json!({"view": "all"})] {
             assert!(ResetRequest::from_fields(&data(bad)).is_err());
