@@ -3,7 +3,7 @@
 
 use crate::belief::{BeliefMetrics, BeliefSummary};
 use crate::episode::{EpisodeRecord, Outcome, run_episode};
-use crate::export::{self, Column, Style, Table};
+use crate::export::{self, Column, Field, Style, Table};
 use crate::par::par_map;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -98,66 +98,64 @@ impl CellSummary {
 
 /// The grid as a table: one row per cell, every figure with its interval.
 pub(crate) fn table(cells: &[CellSummary]) -> Table {
-    let figure = |header: &str, key: &str| Column::new(header, key).style(Style::Interval);
-    let mut t = Table::new(
-        "baselines",
-        "",
+    let figure = |header: &str, key: &str, value: fn(&CellSummary) -> Interval| {
+        Field::new(Column::new(header, key).style(Style::Interval), move |c: &CellSummary| {
+            export::Cell::Interval(value(c))
+        })
+    };
+    let fields: Vec<Field<CellSummary>> = [
+        key_fields(),
         vec![
-            Column::new("scenario", "scenario").style(Style::Code),
-            Column::new("tier", "tier"),
-            Column::new("policy", "policy").style(Style::Code),
-            Column::new("n", "n"),
-            figure("success", "success"),
-            figure("collision", "collision"),
-            figure("timeout", "timeout"),
-            figure("reward", "reward"),
-            figure("decision correctness", "decision_correctness"),
-            figure("guess rate", "guess_rate"),
-            figure("lag (turns)", "evidence_lag"),
+            figure("success", "success", |c| c.success),
+            figure("collision", "collision", |c| c.collision),
+            figure("timeout", "timeout", |c| c.timeout),
+            figure("reward", "reward", |c| c.reward),
+            figure("decision correctness", "decision_correctness", |c| c.decision_correctness),
+            figure("guess rate", "guess_rate", |c| c.guess_rate),
+            figure("lag (turns)", "evidence_lag", |c| c.evidence_lag),
         ],
-    );
-    for c in cells {
-        t.push(vec![
-            export::Cell::text(c.cell.scenario.to_string()),
-            export::Cell::Int(c.cell.tier.number().into()),
-            export::Cell::text(c.cell.policy.to_string()),
-            export::Cell::Int(c.n as u64),
-            export::Cell::Interval(c.success),
-            export::Cell::Interval(c.collision),
-            export::Cell::Interval(c.timeout),
-            export::Cell::Interval(c.reward),
-            export::Cell::Interval(c.decision_correctness),
-            export::Cell::Interval(c.guess_rate),
-            export::Cell::Interval(c.evidence_lag),
-        ]);
-    }
-    t
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    Table::of("baselines", "", &fields, cells)
+}
+
+/// The columns that say which cell a row is, and how many episodes it has.
+fn key_fields() -> Vec<Field<'static, CellSummary>> {
+    use export::Cell;
+    vec![
+        Field::new(Column::new("scenario", "scenario").style(Style::Code), |c: &CellSummary| {
+            Cell::text(c.cell.scenario.to_string())
+        }),
+        Field::new(Column::new("tier", "tier"), |c: &CellSummary| Cell::Int(c.cell.tier.number().into())),
+        Field::new(Column::new("policy", "policy").style(Style::Code), |c: &CellSummary| {
+            Cell::text(c.cell.policy.to_string())
+        }),
+        Field::new(Column::new("n", "n"), |c: &CellSummary| Cell::Int(c.n as u64)),
+    ]
 }
 
 /// The belief table (`baselines --probe belief`): the belief metrics of
 /// every cell's stated beliefs. The expert states the ideal observer's
 /// belief and the cue follower its cue's, as references for a model's.
 pub(crate) fn belief_table(cells: &[CellSummary]) -> Table {
-    let mut columns = vec![
-        Column::new("scenario", "scenario").style(Style::Code),
-        Column::new("tier", "tier"),
-        Column::new("policy", "policy").style(Style::Code),
-        Column::new("n", "n"),
-    ];
-    columns.extend(crate::belief::columns());
-    let mut t = Table::new("baseline_beliefs", "", columns);
-    for c in cells {
-        let Some(b) = &c.belief else { continue };
-        let mut row = vec![
-            export::Cell::text(c.cell.scenario.to_string()),
-            export::Cell::Int(c.cell.tier.number().into()),
-            export::Cell::text(c.cell.policy.to_string()),
-            export::Cell::Int(c.n as u64),
-        ];
-        row.extend(crate::belief::cells(b));
-        t.push(row);
+    type Probed<'a> = (&'a CellSummary, &'a BeliefSummary);
+    let probed: Vec<Probed> = cells.iter().filter_map(|c| Some((c, c.belief.as_ref()?))).collect();
+    fn cell<'a>(p: &'a Probed<'_>) -> &'a CellSummary {
+        p.0
     }
-    t
+    fn belief<'a>(p: &'a Probed<'_>) -> &'a BeliefSummary {
+        p.1
+    }
+    let fields: Vec<Field<Probed>> = [
+        key_fields().into_iter().map(|f| f.of(cell)).collect::<Vec<_>>(),
+        crate::belief::fields().into_iter().map(|f| f.of(belief)).collect(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    Table::of("baseline_beliefs", "", &fields, &probed)
 }
 
 /// A normal-approximation interval cannot leave the metric's range.

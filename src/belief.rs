@@ -295,40 +295,24 @@ impl BeliefSummary {
     }
 }
 
-/// The belief columns every belief table shows after its key columns
-/// (eval's summary, the baselines table, the report).
-pub(crate) fn columns() -> Vec<crate::export::Column> {
-    use crate::export::Column;
+/// The belief metrics as table fields: what every belief table shows after
+/// its key columns (eval's summary, the baselines table, the report).
+pub(crate) fn fields() -> Vec<crate::export::Field<'static, BeliefSummary>> {
+    use crate::export::{Cell, Column, Field};
+    let field = |header: &str, key: &str, value: fn(&BeliefSummary) -> f64| {
+        Field::new(Column::new(header, key), move |b: &BeliefSummary| Cell::Float(value(b)))
+    };
     vec![
-        Column::new("Brier before", "brier_before"),
-        Column::new("ideal before", "ideal_brier_before"),
-        Column::new("Brier after", "brier_after"),
-        Column::new("ideal after", "ideal_brier_after"),
-        Column::new("belief lag", "belief_lag"),
-        Column::new("never converged", "never_converged"),
-        Column::new("consistency", "belief_action_consistency"),
-        Column::new("calibration error", "calibration_error"),
-        Column::new("probe errors", "probe_error_rate"),
+        field("Brier before", "brier_before", |b| b.brier_before),
+        field("ideal before", "ideal_brier_before", |b| b.ideal_brier_before),
+        field("Brier after", "brier_after", |b| b.brier_after),
+        field("ideal after", "ideal_brier_after", |b| b.ideal_brier_after),
+        field("belief lag", "belief_lag", |b| b.lag),
+        field("never converged", "never_converged", |b| b.never_converged),
+        field("consistency", "belief_action_consistency", |b| b.consistency),
+        field("calibration error", "calibration_error", |b| b.calibration_error),
+        field("probe errors", "probe_error_rate", |b| b.probe_error_rate),
     ]
-}
-
-/// The cells of [`columns`] for one summary.
-pub(crate) fn cells(b: &BeliefSummary) -> Vec<crate::export::Cell> {
-    use crate::export::Cell;
-    [
-        b.brier_before,
-        b.ideal_brier_before,
-        b.brier_after,
-        b.ideal_brier_after,
-        b.lag,
-        b.never_converged,
-        b.consistency,
-        b.calibration_error,
-        b.probe_error_rate,
-    ]
-    .into_iter()
-    .map(Cell::Float)
-    .collect()
 }
 
 /// The note under every belief table: what the columns mean.

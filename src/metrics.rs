@@ -84,30 +84,21 @@ impl CellMetrics {
     }
 }
 
-/// The columns of a cell's outcome figures, in the order of
-/// [`CellMetrics::outcome_cells`]; their keys are the field names.
-pub(crate) fn outcome_columns(correctness_header: &str) -> Vec<crate::export::Column> {
-    use crate::export::{Column, Style};
-    vec![
-        Column::new("success [95% CI]", "success").style(Style::Interval),
-        Column::new("collision", "collision_rate"),
-        Column::new("timeout", "timeout_rate"),
-        Column::new("reward", "mean_reward"),
-        Column::new(correctness_header, "decision_correctness"),
-    ]
-}
-
 impl CellMetrics {
-    /// The cells of [`outcome_columns`], built next to them so that the
-    /// two cannot fall out of step.
-    pub(crate) fn outcome_cells(&self) -> Vec<crate::export::Cell> {
-        use crate::export::Cell;
+    /// The outcome figures as table fields (their keys are the field
+    /// names), for any table that shows a cell's metrics.
+    pub(crate) fn outcome_fields(correctness_header: &str) -> Vec<crate::export::Field<'static, CellMetrics>> {
+        use crate::export::{Cell, Column, Field, Style};
         vec![
-            Cell::Interval(self.success),
-            Cell::Float(self.collision_rate),
-            Cell::Float(self.timeout_rate),
-            Cell::Float(self.mean_reward),
-            Cell::Float(self.decision_correctness),
+            Field::new(Column::new("success [95% CI]", "success").style(Style::Interval), |m: &CellMetrics| {
+                Cell::Interval(m.success)
+            }),
+            Field::new(Column::new("collision", "collision_rate"), |m: &CellMetrics| Cell::Float(m.collision_rate)),
+            Field::new(Column::new("timeout", "timeout_rate"), |m: &CellMetrics| Cell::Float(m.timeout_rate)),
+            Field::new(Column::new("reward", "mean_reward"), |m: &CellMetrics| Cell::Float(m.mean_reward)),
+            Field::new(Column::new(correctness_header, "decision_correctness"), |m: &CellMetrics| {
+                Cell::Float(m.decision_correctness)
+            }),
         ]
     }
 }

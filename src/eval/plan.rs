@@ -21,7 +21,7 @@ use super::EvalOptions;
 use super::prompt::{History, history_answer};
 use crate::action::parse_action;
 use crate::episode::Episode;
-use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table};
+use crate::export::{Cell, Column, Exporter, Field, MarkdownExporter, Style, Table};
 use crate::instructions::SYSTEM_PROMPT;
 use crate::llm::client::request_body;
 use crate::llm::{ChatMessage, ChatRequest, Role};
@@ -224,34 +224,25 @@ fn schedule_turns(lengths: &mut [u64], slots: usize) -> u64 {
 
 /// The per-cell table of the plan.
 pub(crate) fn table(plan: &Plan) -> Table {
-    let mut t = Table::new(
-        "dry_run",
-        "",
-        vec![
-            Column::new("scenario", "scenario"),
-            Column::new("tier", "tier"),
-            Column::new("episodes", "episodes"),
-            Column::new("turns/ep (expert)", "turns_per_episode").style(Style::Plain),
-            Column::new("turn budget", "turn_budget"),
-            Column::new("prompt tokens/ep", "prompt_tokens_per_episode").style(Style::Whole),
-            Column::new("cacheable", "cacheable_share"),
-            Column::new("answer tokens/ep", "answer_tokens_per_episode").style(Style::Whole),
-        ],
-    );
-    for c in &plan.cells {
-        let per_ep = |x: u64| x as f64 / c.episodes.max(1) as f64;
-        t.push(vec![
-            Cell::text(c.scenario.to_string()),
-            Cell::Int(c.tier.number().into()),
-            Cell::Int(c.episodes),
-            Cell::Float(c.turns_per_episode),
-            Cell::Int(c.turn_budget.into()),
-            Cell::Float(per_ep(c.prompt_tokens)),
-            Cell::Percent(100.0 * c.cacheable_tokens as f64 / c.prompt_tokens.max(1) as f64),
-            Cell::Float(per_ep(c.answer_tokens)),
-        ]);
-    }
-    t
+    type C = CellPlan;
+    let per_ep = |x: u64, c: &C| x as f64 / c.episodes.max(1) as f64;
+    let fields: [Field<C>; 8] = [
+        Field::new(Column::new("scenario", "scenario"), |c: &C| Cell::text(c.scenario.to_string())),
+        Field::new(Column::new("tier", "tier"), |c: &C| Cell::Int(c.tier.number().into())),
+        Field::new(Column::new("episodes", "episodes"), |c: &C| Cell::Int(c.episodes)),
+        Field::new(Column::new("turns/ep (expert)", "turns_per_episode"), |c: &C| Cell::Float(c.turns_per_episode)),
+        Field::new(Column::new("turn budget", "turn_budget"), |c: &C| Cell::Int(c.turn_budget.into())),
+        Field::new(Column::new("prompt tokens/ep", "prompt_tokens_per_episode").style(Style::Whole), move |c: &C| {
+            Cell::Float(per_ep(c.prompt_tokens, c))
+        }),
+        Field::new(Column::new("cacheable", "cacheable_share"), |c: &C| {
+            Cell::Percent(100.0 * c.cacheable_tokens as f64 / c.prompt_tokens.max(1) as f64)
+        }),
+        Field::new(Column::new("answer tokens/ep", "answer_tokens_per_episode").style(Style::Whole), move |c: &C| {
+            Cell::Float(per_ep(c.answer_tokens, c))
+        }),
+    ];
+    Table::of("dry_run", "", &fields, &plan.cells)
 }
 
 fn duration(s: f64) -> String {

@@ -2,8 +2,9 @@
 //! of the selection. Infrastructure errors are excluded from every score and
 //! shown as their own column.
 
-use crate::export::{Cell, Column, Exporter, MarkdownExporter, Style, Table, f2};
-use crate::metrics::{CellMetrics, RESAMPLES, outcome_columns};
+use crate::belief::BeliefSummary;
+use crate::export::{Cell, Column, Exporter, Field, MarkdownExporter, Style, Table, f2};
+use crate::metrics::{CellMetrics, RESAMPLES};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::mean;
@@ -82,70 +83,66 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
 
 /// The leaderboard as a table: one row per (scenario, tier).
 pub(crate) fn table(summary: &Summary) -> Table {
-    let mut t = Table::new(
-        "summary",
-        "",
-        [
-            vec![
-                Column::new("scenario", "scenario"),
-                Column::new("tier", "tier"),
-                Column::display("n (seeds x rollouts)"),
-                Column::data("episodes"),
-                Column::data("seeds"),
-            ],
-            outcome_columns("correctness"),
-            vec![
-                Column::new("guess rate", "guess_rate"),
-                Column::new("lag (turns)", "evidence_lag"),
-                Column::new("parse errors", "parse_error_rate"),
-                Column::new("truncated", "truncated_rate"),
-                Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
-                Column::new("missing", "missing"),
-            ],
-        ]
-        .concat(),
-    );
-    for s in &summary.cells {
-        let c = &s.metrics;
-        let head = [
-            Cell::text(s.scenario.to_string()),
-            Cell::Int(s.tier.number().into()),
-            Cell::text(format!("{}x{}", c.seeds, c.rollouts)),
-            Cell::Int(c.episodes as u64),
-            Cell::Int(c.seeds as u64),
-        ];
-        let tail = [
-            Cell::Float(c.guess_rate),
-            Cell::Float(c.evidence_lag),
-            Cell::Float(c.parse_error_rate),
-            Cell::Float(c.truncated_rate),
-            Cell::Float(c.tokens_per_episode),
-            Cell::Int(s.missing as u64),
-        ];
-        t.push([head.to_vec(), c.outcome_cells(), tail.to_vec()].concat());
-    }
-    t
+    let metric = |header: &str, key: &str, value: fn(&CellMetrics) -> f64| {
+        Field::new(Column::new(header, key), move |s: &CellSummary| Cell::Float(value(&s.metrics)))
+    };
+    let fields: Vec<Field<CellSummary>> = [
+        key_fields(),
+        vec![
+            Field::new(Column::display("n (seeds x rollouts)"), |s: &CellSummary| {
+                Cell::text(format!("{}x{}", s.metrics.seeds, s.metrics.rollouts))
+            }),
+            Field::new(Column::data("episodes"), |s: &CellSummary| Cell::Int(s.metrics.episodes as u64)),
+            Field::new(Column::data("seeds"), |s: &CellSummary| Cell::Int(s.metrics.seeds as u64)),
+        ],
+        CellMetrics::outcome_fields("correctness").into_iter().map(|f| f.of(|s: &CellSummary| &s.metrics)).collect(),
+        vec![
+            metric("guess rate", "guess_rate", |m: &CellMetrics| m.guess_rate),
+            metric("lag (turns)", "evidence_lag", |m: &CellMetrics| m.evidence_lag),
+            metric("parse errors", "parse_error_rate", |m: &CellMetrics| m.parse_error_rate),
+            metric("truncated", "truncated_rate", |m: &CellMetrics| m.truncated_rate),
+            Field::new(Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole), |s: &CellSummary| {
+                Cell::Float(s.metrics.tokens_per_episode)
+            }),
+            Field::new(Column::new("missing", "missing"), |s: &CellSummary| Cell::Int(s.missing as u64)),
+        ],
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    Table::of("summary", "", &fields, &summary.cells)
+}
+
+/// The columns that say which cell a row is.
+fn key_fields() -> Vec<Field<'static, CellSummary>> {
+    vec![
+        Field::new(Column::new("scenario", "scenario"), |s: &CellSummary| Cell::text(s.scenario.to_string())),
+        Field::new(Column::new("tier", "tier"), |s: &CellSummary| Cell::Int(s.tier.number().into())),
+    ]
 }
 
 /// The belief table of a probe run: one row per (scenario, tier) with
 /// belief metrics (None when no cell has any).
 pub(crate) fn belief_table(summary: &Summary) -> Option<Table> {
-    let mut columns =
-        vec![Column::new("scenario", "scenario"), Column::new("tier", "tier"), Column::new("n", "episodes")];
-    columns.extend(crate::belief::columns());
-    let mut t = Table::new("belief", "Belief probe", columns);
-    for c in &summary.cells {
-        let Some(b) = &c.metrics.belief else { continue };
-        let mut row = vec![
-            Cell::text(c.scenario.to_string()),
-            Cell::Int(c.tier.number().into()),
-            Cell::Int(c.metrics.episodes as u64),
-        ];
-        row.extend(crate::belief::cells(b));
-        t.push(row);
+    type Probed<'a> = (&'a CellSummary, &'a BeliefSummary);
+    let probed: Vec<Probed> = summary.cells.iter().filter_map(|c| Some((c, c.metrics.belief.as_ref()?))).collect();
+    fn cell<'a>(p: &'a Probed<'_>) -> &'a CellSummary {
+        p.0
     }
+    fn belief<'a>(p: &'a Probed<'_>) -> &'a BeliefSummary {
+        p.1
+    }
+    let fields: Vec<Field<Probed>> = [
+        key_fields().into_iter().map(|f| f.of(cell)).collect(),
+        vec![Field::new(Column::new("n", "episodes"), |(c, _): &Probed| Cell::Int(c.metrics.episodes as u64))],
+        crate::belief::fields().into_iter().map(|f| f.of(belief)).collect(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let mut t = Table::of("belief", "Belief probe", &fields, &probed);
     t.note(crate::belief::TABLE_NOTE);
-    summary.cells.iter().any(|c| c.metrics.belief.is_some()).then_some(t)
+    (!probed.is_empty()).then_some(t)
 }
 
 /// `summary.md` and the table printed at the end of a run: the model, the

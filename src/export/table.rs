@@ -3,6 +3,11 @@
 //! HTML), how it is keyed in the data formats (CSV, JSON) and how its
 //! values are shown; a cell says only what the value is. Every renderer in
 //! this module's siblings reads the same table, so a row is built once.
+//!
+//! A table is built from typed rows ([`Table::of`]): each column is a
+//! [`Field`], its header defined with the accessor that reads its cell from
+//! a row, so a value cannot be put under another column's header. Cells
+//! pushed by position exist only for the renderers' own tests.
 
 use crate::stats::Interval;
 use serde::ser::{Serialize, SerializeMap, SerializeStruct, Serializer};
@@ -191,6 +196,28 @@ impl Column {
     }
 }
 
+/// A column of a table whose rows are `R`s: the [`Column`] and the accessor
+/// that reads its cell from a row. A header and its value are defined
+/// together, so a value cannot land under another column: reordering the
+/// fields reorders both.
+pub(crate) struct Field<'a, R: ?Sized> {
+    column: Column,
+    cell: Box<dyn Fn(&R) -> Cell + 'a>,
+}
+
+impl<'a, R: ?Sized + 'a> Field<'a, R> {
+    pub(crate) fn new(column: Column, cell: impl Fn(&R) -> Cell + 'a) -> Field<'a, R> {
+        Field { column, cell: Box::new(cell) }
+    }
+
+    /// The same column read from the part `part` picks of a larger row (the
+    /// metrics of a summary's cell, the belief of a baseline's).
+    pub(crate) fn of<S: ?Sized + 'a>(self, part: impl Fn(&S) -> &R + 'a) -> Field<'a, S> {
+        let cell = self.cell;
+        Field { column: self.column, cell: Box::new(move |row| cell(part(row))) }
+    }
+}
+
 /// A table: a name (the CSV file stem), a title, columns, rows and notes.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct Table {
@@ -208,7 +235,22 @@ impl Table {
         Table { name: name.to_string(), title: title.into(), columns, ..Table::default() }
     }
 
-    /// Add a row: one cell per column.
+    /// A table of `rows`, each cell read by its column's field: the way
+    /// every table of the program is built.
+    pub(crate) fn of<'r, R: ?Sized + 'r>(
+        name: &str,
+        title: impl Into<String>,
+        fields: &[Field<'_, R>],
+        rows: impl IntoIterator<Item = &'r R>,
+    ) -> Table {
+        let mut t = Table::new(name, title, fields.iter().map(|f| f.column.clone()).collect());
+        t.rows = rows.into_iter().map(|row| fields.iter().map(|f| (f.cell)(row)).collect()).collect();
+        t
+    }
+
+    /// Add a row: one cell per column (the renderers' tests build tables
+    /// cell by cell; the program builds them from fields, [`Table::of`]).
+    #[cfg(test)]
     pub(crate) fn push(&mut self, row: Vec<Cell>) {
         assert_eq!(row.len(), self.columns.len(), "table {}: a row needs one cell per column", self.name);
         self.rows.push(row);
@@ -284,5 +326,61 @@ fn p_value(p: f64) -> String {
         "<0.001".into()
     } else {
         format!("{p:.3}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Row {
+        name: &'static str,
+        wins: u64,
+        share: f64,
+    }
+
+    fn fields() -> Vec<Field<'static, Row>> {
+        vec![
+            Field::new(Column::new("name", "name"), |r: &Row| Cell::text(r.name)),
+            Field::new(Column::new("wins", "wins"), |r: &Row| Cell::Int(r.wins)),
+            Field::new(Column::new("share", "share"), |r: &Row| Cell::Float(r.share)),
+        ]
+    }
+
+    /// A value is read by its own column's accessor: whatever order the
+    /// fields are listed in, each key carries its own value.
+    #[test]
+    fn a_value_stays_under_its_column_whatever_the_order() {
+        let rows = [Row { name: "a", wins: 3, share: 0.25 }, Row { name: "b", wins: 1, share: 0.5 }];
+        let straight = Table::of("t", "", &fields(), &rows);
+        let mut reversed_fields = fields();
+        reversed_fields.reverse();
+        let reversed = Table::of("t", "", &reversed_fields, &rows);
+        let keyed = |t: &Table| -> Vec<Vec<(String, Cell)>> {
+            let mut rows: Vec<Vec<(String, Cell)>> = t
+                .data_rows()
+                .map(|r| r.fields().map(|(c, cell)| (c.key.clone().unwrap(), cell.clone())).collect())
+                .collect();
+            rows.iter_mut().for_each(|r| r.sort_by(|a, b| a.0.cmp(&b.0)));
+            rows
+        };
+        assert_eq!(keyed(&straight), keyed(&reversed));
+        assert_eq!(straight.rows[0], [Cell::text("a"), Cell::Int(3), Cell::Float(0.25)]);
+        assert_eq!(reversed.columns[0].key.as_deref(), Some("share"));
+    }
+
+    /// A part's fields read through `of` show the part of each row.
+    #[test]
+    fn fields_of_a_part_read_that_part() {
+        struct Outer {
+            label: &'static str,
+            inner: Row,
+        }
+        let mut fields: Vec<Field<Outer>> =
+            vec![Field::new(Column::new("label", "label"), |o: &Outer| Cell::text(o.label))];
+        fields.extend(self::tests::fields().into_iter().map(|f| f.of(|o: &Outer| &o.inner)));
+        let rows = [Outer { label: "x", inner: Row { name: "n", wins: 2, share: 1.0 } }];
+        let t = Table::of("t", "", &fields, &rows);
+        assert_eq!(t.rows[0], [Cell::text("x"), Cell::text("n"), Cell::Int(2), Cell::Float(1.0)]);
     }
 }

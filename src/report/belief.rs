@@ -5,7 +5,7 @@
 
 use super::load::ModelData;
 use crate::belief::BeliefSummary;
-use crate::export::{Cell, Column, Style, Table};
+use crate::export::{Cell, Column, Field, Style, Table};
 use crate::scenario::{ScenarioKind, Tier};
 use serde::Serialize;
 
@@ -55,24 +55,21 @@ pub(crate) fn pooled(model: &ModelData) -> Option<BeliefSummary> {
 }
 
 pub(crate) fn table(rows: &[BeliefRow]) -> Table {
-    let mut columns = vec![
-        Column::new("model", "model"),
-        Column::new("scenario", "scenario").style(Style::Code),
-        Column::new("tier", "tier"),
-        Column::new("n", "episodes"),
-    ];
-    columns.extend(crate::belief::columns());
-    let mut t = Table::new("belief", "Belief probe", columns);
-    for r in rows {
-        let mut row = vec![
-            Cell::text(r.model.clone()),
-            Cell::text(r.scenario.to_string()),
-            Cell::Int(r.tier.number().into()),
-            Cell::Int(r.episodes as u64),
-        ];
-        row.extend(crate::belief::cells(&r.belief));
-        t.push(row);
-    }
+    let fields: Vec<Field<BeliefRow>> = [
+        vec![
+            Field::new(Column::new("model", "model"), |r: &BeliefRow| Cell::text(r.model.clone())),
+            Field::new(Column::new("scenario", "scenario").style(Style::Code), |r: &BeliefRow| {
+                Cell::text(r.scenario.to_string())
+            }),
+            Field::new(Column::new("tier", "tier"), |r: &BeliefRow| Cell::Int(r.tier.number().into())),
+            Field::new(Column::new("n", "episodes"), |r: &BeliefRow| Cell::Int(r.episodes as u64)),
+        ],
+        crate::belief::fields().into_iter().map(|f| f.of(|r: &BeliefRow| &r.belief)).collect(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let mut t = Table::of("belief", "Belief probe", &fields, rows);
     t.note(crate::belief::TABLE_NOTE);
     t
 }

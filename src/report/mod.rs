@@ -24,7 +24,7 @@ pub mod reference;
 pub mod tables;
 pub mod timing;
 
-use crate::export::{Cell, Column, CsvExporter, Exporter, Format, INCOMPLETE_MARK, MarkdownExporter, Table};
+use crate::export::{Cell, Column, CsvExporter, Exporter, Field, Format, INCOMPLETE_MARK, MarkdownExporter, Table};
 use crate::scenario::Tier;
 use load::{Dataset, ModelData, RunSource};
 use paired::PairRow;
@@ -418,35 +418,25 @@ impl Report {
     }
 
     pub(crate) fn runs_table(&self) -> Table {
-        let mut t = Table::new(
-            "runs",
-            "Run directories",
-            vec![
-                Column::new("model", "model"),
-                Column::new("directory", "directory"),
-                Column::new("config", "config"),
-                Column::new("shard", "shard"),
-                Column::new("episodes", "episodes"),
-                Column::new("errors.jsonl lines", "infra_error_lines"),
-                Column::new("unreadable lines", "bad_lines"),
-            ],
-        );
-        for r in &self.runs {
-            let label = self
-                .models
+        type R = RunSource;
+        let label = |r: &R| {
+            self.models
                 .iter()
                 .find(|m| m.config_hash == r.config_hash && m.model == r.model)
-                .map_or(r.model.clone(), |m| m.label.clone());
-            t.push(vec![
-                Cell::Text(label),
-                Cell::text(r.dir.display().to_string()),
-                Cell::Text(r.config_hash.chars().take(8).collect()),
-                r.shard.clone().map_or(Cell::Missing, Cell::Text),
-                Cell::Int(r.episodes as u64),
-                Cell::Int(r.infra_error_lines as u64),
-                Cell::Int(r.bad_lines as u64),
-            ]);
-        }
+                .map_or(r.model.clone(), |m| m.label.clone())
+        };
+        let fields: [Field<R>; 7] = [
+            Field::new(Column::new("model", "model"), move |r: &R| Cell::Text(label(r))),
+            Field::new(Column::new("directory", "directory"), |r: &R| Cell::text(r.dir.display().to_string())),
+            Field::new(Column::new("config", "config"), |r: &R| Cell::Text(r.config_hash.chars().take(8).collect())),
+            Field::new(Column::new("shard", "shard"), |r: &R| r.shard.clone().map_or(Cell::Missing, Cell::Text)),
+            Field::new(Column::new("episodes", "episodes"), |r: &R| Cell::Int(r.episodes as u64)),
+            Field::new(Column::new("errors.jsonl lines", "infra_error_lines"), |r: &R| {
+                Cell::Int(r.infra_error_lines as u64)
+            }),
+            Field::new(Column::new("unreadable lines", "bad_lines"), |r: &R| Cell::Int(r.bad_lines as u64)),
+        ];
+        let mut t = Table::of("runs", "Run directories", &fields, &self.runs);
         self.mark_incomplete(&mut t);
         t
     }

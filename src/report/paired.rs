@@ -21,7 +21,7 @@
 use super::boot::{paired_ci, seed_for};
 use super::load::ModelData;
 use super::tables::{Unit, tiers_label, units};
-use crate::export::{Cell, Column, Style, Table};
+use crate::export::{Cell, Column, Field, Style, Table};
 use crate::par::par_map;
 use crate::scenario::Tier;
 use crate::stats::{Interval, mcnemar_exact, mcnemar_keys_for_power};
@@ -160,42 +160,31 @@ pub(crate) fn all_pairs(models: &[&ModelData], tiers: &[Tier], resamples: usize,
 }
 
 pub(crate) fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -> Table {
-    let mut t = Table::new(
-        "paired",
-        format!("Paired comparisons on shared seeds ({})", tiers_label(tiers)),
-        vec![
-            Column::new("A", "a"),
-            Column::new("B", "b"),
-            Column::new("shared", "shared_keys"),
-            Column::new("success A", "success_a"),
-            Column::new("success B", "success_b"),
-            Column::new("A − B [95% CI]", "diff").style(Style::SignedInterval),
-            Column::new("A only", "a_only"),
-            Column::new("B only", "b_only"),
-            Column::new("McNemar p", "mcnemar_p").style(Style::PValue),
-            Column::new("verdict", "verdict"),
-            Column::new("seeds for 80% power", "seeds_for_power"),
-        ],
-    );
-    for r in rows {
-        t.push(vec![
-            Cell::text(&r.a),
-            Cell::text(&r.b),
-            Cell::Int(r.keys as u64),
-            Cell::Float(r.success_a),
-            Cell::Float(r.success_b),
-            Cell::Interval(r.diff),
-            Cell::Int(r.a_only as u64),
-            Cell::Int(r.b_only as u64),
-            Cell::Float(r.mcnemar_p),
-            Cell::text(&r.verdict),
-            match r.seeds_for_power {
-                Some(n) => Cell::Int(n),
-                None if r.significant => Cell::Blank,
-                None => Cell::Missing,
-            },
-        ]);
-    }
+    type R = PairRow;
+    let count = |header: &str, key: &str, value: fn(&R) -> usize| {
+        Field::new(Column::new(header, key), move |r: &R| Cell::Int(value(r) as u64))
+    };
+    let fields: [Field<R>; 11] = [
+        Field::new(Column::new("A", "a"), |r: &R| Cell::text(&r.a)),
+        Field::new(Column::new("B", "b"), |r: &R| Cell::text(&r.b)),
+        count("shared", "shared_keys", |r| r.keys),
+        Field::new(Column::new("success A", "success_a"), |r: &R| Cell::Float(r.success_a)),
+        Field::new(Column::new("success B", "success_b"), |r: &R| Cell::Float(r.success_b)),
+        Field::new(Column::new("A − B [95% CI]", "diff").style(Style::SignedInterval), |r: &R| {
+            Cell::Interval(r.diff)
+        }),
+        count("A only", "a_only", |r| r.a_only),
+        count("B only", "b_only", |r| r.b_only),
+        Field::new(Column::new("McNemar p", "mcnemar_p").style(Style::PValue), |r: &R| Cell::Float(r.mcnemar_p)),
+        Field::new(Column::new("verdict", "verdict"), |r: &R| Cell::text(&r.verdict)),
+        Field::new(Column::new("seeds for 80% power", "seeds_for_power"), |r: &R| match r.seeds_for_power {
+            Some(n) => Cell::Int(n),
+            None if r.significant => Cell::Blank,
+            None => Cell::Missing,
+        }),
+    ];
+    let mut t =
+        Table::of("paired", format!("Paired comparisons on shared seeds ({})", tiers_label(tiers)), &fields, rows);
     t.note(format!(
         "shared: (scenario, tier, seed) keys both models have. CI: paired percentile bootstrap over the keys \
          ({resamples} resamples). A only / B only: discordant pairs (one succeeded, the other failed) for the exact \

@@ -6,7 +6,7 @@
 
 use super::load::ModelData;
 use super::tables::{tiers_label, units};
-use crate::export::{Cell, Column, Table};
+use crate::export::{Cell, Column, Field, Table};
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::mean_pass_hat_k;
 use serde::Serialize;
@@ -54,27 +54,21 @@ pub(crate) fn pass_k_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<PassKRow
 
 pub(crate) fn pass_k_table(rows: &[PassKRow], tiers: &[Tier]) -> Table {
     let max_r = rows.iter().map(|r| r.r).max().unwrap_or(1) as usize;
-    let mut columns = vec![
-        Column::new("model", "model"),
-        Column::new("scenario", "scenario"),
-        Column::new("r", "r"),
-        Column::new("seeds used", "seeds"),
-        Column::new("seeds excluded", "excluded"),
+    type R = PassKRow;
+    let mut fields: Vec<Field<R>> = vec![
+        Field::new(Column::new("model", "model"), |r: &R| Cell::text(&r.model)),
+        Field::new(Column::new("scenario", "scenario"), |r: &R| Cell::text(&r.scope)),
+        Field::new(Column::new("r", "r"), |r: &R| Cell::Int(r.r.into())),
+        Field::new(Column::new("seeds used", "seeds"), |r: &R| Cell::Int(r.seeds as u64)),
+        Field::new(Column::new("seeds excluded", "excluded"), |r: &R| Cell::Int(r.excluded as u64)),
     ];
-    columns.extend((1..=max_r).map(|k| Column::new(format!("pass^{k}"), format!("pass_{k}"))));
-    let mut t =
-        Table::new("pass_k", format!("pass^k over seeds with all r rollouts ({})", tiers_label(tiers)), columns);
-    for r in rows {
-        let mut row = vec![
-            Cell::text(&r.model),
-            Cell::text(&r.scope),
-            Cell::Int(r.r.into()),
-            Cell::Int(r.seeds as u64),
-            Cell::Int(r.excluded as u64),
-        ];
-        row.extend((0..max_r).map(|k| r.pass.get(k).map_or(Cell::Blank, |&p| Cell::Float(p))));
-        t.push(row);
-    }
+    fields.extend((1..=max_r).map(|k| {
+        Field::new(Column::new(format!("pass^{k}"), format!("pass_{k}")), move |r: &R| {
+            r.pass.get(k - 1).map_or(Cell::Blank, |&p| Cell::Float(p))
+        })
+    }));
+    let title = format!("pass^k over seeds with all r rollouts ({})", tiers_label(tiers));
+    let mut t = Table::of("pass_k", title, &fields, rows);
     t.note(
         "pass^k = mean over seeds of C(c, k) / C(r, k), c successes among the seed's r rollouts: the chance that k \
          rollouts of one seed all succeed. Seeds missing a rollout are excluded (counted above).",

@@ -9,7 +9,7 @@ use super::boot::{clustered_mean_of_means_ci, seed_for};
 use super::load::{Episode, ModelData, same_unit};
 use super::reference::{CEILING, FLOOR, References};
 use crate::episode::Outcome;
-use crate::export::{Cell, Column, INCOMPLETE_MARK, Style, Table};
+use crate::export::{Cell, Column, Field, INCOMPLETE_MARK, Style, Table};
 use crate::metrics::{CellMetrics, mean_of, outcome_rate};
 use crate::par::par_map;
 use crate::rundir::record::EpisodeScalars;
@@ -299,6 +299,13 @@ pub(crate) fn leaderboard(
     Leaderboard { tiers: tiers.to_vec(), scenarios, rows, references, reference_source: refs.source.clone() }
 }
 
+/// A row of the leaderboard's table: a model, or a reference level under
+/// the models.
+enum Ranked<'a> {
+    Model(&'a LeaderRow),
+    Reference(&'a ReferenceRow),
+}
+
 impl Leaderboard {
     pub(crate) fn title(&self) -> String {
         format!("Success rates ({}; 95% percentile bootstrap CIs)", tiers_label(&self.tiers))
@@ -307,48 +314,58 @@ impl Leaderboard {
     /// Models, then the reference rows. The CSV adds each scenario's seeds
     /// (`{scenario}_n`), the row kind and the tiers.
     pub(crate) fn table(&self, resamples: usize) -> Table {
-        let mut columns = vec![
-            Column::new("rank", "rank"),
-            Column::new("model", "model"),
-            Column::data("kind"),
-            Column::new("avg. [95% CI]", "avg").style(Style::Interval),
+        let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
+        let level = |x: Option<f64>| x.map_or(Cell::Missing, Cell::estimate);
+        let mut fields: Vec<Field<Ranked>> = vec![
+            Field::new(Column::new("rank", "rank"), |r: &Ranked| match r {
+                Ranked::Model(m) => m.rank.map_or(Cell::Missing, |k| Cell::Int(k as u64)),
+                Ranked::Reference(_) => Cell::Blank,
+            }),
+            Field::new(Column::new("model", "model"), |r: &Ranked| match r {
+                Ranked::Model(m) => Cell::text(&m.model),
+                Ranked::Reference(x) => Cell::text(&x.label),
+            }),
+            Field::new(Column::data("kind"), |r: &Ranked| match r {
+                Ranked::Model(_) => Cell::text("model"),
+                Ranked::Reference(_) => Cell::text("reference"),
+            }),
+            Field::new(Column::new("avg. [95% CI]", "avg").style(Style::Interval), move |r: &Ranked| match r {
+                Ranked::Model(m) => Cell::Interval(m.average),
+                Ranked::Reference(x) => level(x.average),
+            }),
         ];
-        for s in &self.scenarios {
-            columns.push(Column::new(format!("{s} [95% CI]"), s.to_string()).style(Style::Interval));
-            columns.push(Column::data(format!("{s}_n")));
+        for (i, s) in self.scenarios.iter().enumerate() {
+            let success = Column::new(format!("{s} [95% CI]"), s.to_string()).style(Style::Interval);
+            fields.push(Field::new(success, move |r: &Ranked| match r {
+                Ranked::Model(m) => m.scenarios[i].as_ref().map_or(Cell::Missing, |c| Cell::Interval(c.success)),
+                Ranked::Reference(x) => level(x.scenarios[i]),
+            }));
+            fields.push(Field::new(Column::data(format!("{s}_n")), move |r: &Ranked| match r {
+                Ranked::Model(m) => Cell::Int(m.scenarios[i].as_ref().map_or(0, |c| c.seeds as u64)),
+                Ranked::Reference(_) => Cell::Blank,
+            }));
         }
         let dc_column = DcColumn::get();
-        columns.extend(dc_column.map(|c| Column::new(c.header(), c.key())));
-        columns.extend([Column::new("episodes", "episodes"), Column::data("tiers"), Column::data("incomplete")]);
-        let tiers = self.tiers.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(" ");
-        let mut t = Table::new("leaderboard", self.title(), columns);
-        for r in &self.rows {
-            let rank = r.rank.map_or(Cell::Missing, |k| Cell::Int(k as u64));
-            let mut row = vec![rank, Cell::text(&r.model), Cell::text("model"), Cell::Interval(r.average)];
-            for c in &r.scenarios {
-                match c {
-                    Some(c) => row.extend([Cell::Interval(c.success), Cell::Int(c.seeds as u64)]),
-                    None => row.extend([Cell::Missing, Cell::Int(0)]),
-                }
-            }
-            row.extend(dc_column.map(|_| Cell::opt(r.dc.0)));
-            row.extend([
-                Cell::Int(r.episodes as u64),
-                Cell::text(&tiers),
-                r.incomplete.as_ref().map_or(Cell::Blank, Cell::text),
-            ]);
-            t.push(row);
-        }
-        let level = |x: Option<f64>| x.map_or(Cell::Missing, Cell::estimate);
-        for r in &self.references {
-            let mut row = vec![Cell::Blank, Cell::text(&r.label), Cell::text("reference"), level(r.average)];
-            for x in &r.scenarios {
-                row.extend([level(*x), Cell::Blank]);
-            }
-            row.extend(dc_column.map(|_| Cell::opt(r.dc.0)));
-            row.extend([Cell::Blank, Cell::text(&tiers), Cell::Blank]);
-            t.push(row);
-        }
+        fields.extend(dc_column.map(|c| {
+            Field::new(Column::new(c.header(), c.key()), |r: &Ranked| match r {
+                Ranked::Model(m) => Cell::opt(m.dc.0),
+                Ranked::Reference(x) => Cell::opt(x.dc.0),
+            })
+        }));
+        fields.extend([
+            Field::new(Column::new("episodes", "episodes"), |r: &Ranked| match r {
+                Ranked::Model(m) => Cell::Int(m.episodes as u64),
+                Ranked::Reference(_) => Cell::Blank,
+            }),
+            Field::new(Column::data("tiers"), move |_: &Ranked| Cell::text(&tiers)),
+            Field::new(Column::data("incomplete"), |r: &Ranked| match r {
+                Ranked::Model(m) => m.incomplete.as_ref().map_or(Cell::Blank, Cell::text),
+                Ranked::Reference(_) => Cell::Blank,
+            }),
+        ]);
+        let rows: Vec<Ranked> =
+            self.rows.iter().map(Ranked::Model).chain(self.references.iter().map(Ranked::Reference)).collect();
+        let mut t = Table::of("leaderboard", self.title(), &fields, &rows);
         let dc_note = dc_column.map(|c| format!(" {}: decision correctness on {}.", c.term(), c.scenario));
         t.note(format!(
             "Per-scenario CIs resample seeds ({resamples} resamples); the average's CI resamples seeds jointly across \
@@ -419,33 +436,26 @@ pub(crate) fn tier_rows(models: &[&ModelData], refs: &References, resamples: usi
 }
 
 pub(crate) fn tier_table(rows: &[TierRow]) -> Table {
-    let mut t = Table::new(
-        "tiers",
-        "Per tier: success with 95% CI, outcome rates, reward and decision correctness",
-        [
-            vec![
-                Column::new("model", "model"),
-                Column::new("scenario", "scenario"),
-                Column::new("tier", "tier"),
-                Column::data("seeds"),
-                Column::new("n", "episodes"),
-            ],
-            crate::metrics::outcome_columns("DC"),
-            vec![Column::new("expert", "expert"), Column::new("floor", "always_proceed")],
-        ]
-        .concat(),
-    );
-    for r in rows {
-        let c = &r.metrics;
-        let head = [
-            Cell::text(&r.model),
-            Cell::text(r.scenario.to_string()),
-            Cell::Int(r.tier.number().into()),
-            Cell::Int(c.seeds as u64),
-            Cell::Int(c.episodes as u64),
-        ];
-        t.push([head.to_vec(), c.outcome_cells(), vec![Cell::opt(r.expert), Cell::opt(r.floor)]].concat());
-    }
+    type R = TierRow;
+    let fields: Vec<Field<R>> = [
+        vec![
+            Field::new(Column::new("model", "model"), |r: &R| Cell::text(&r.model)),
+            Field::new(Column::new("scenario", "scenario"), |r: &R| Cell::text(r.scenario.to_string())),
+            Field::new(Column::new("tier", "tier"), |r: &R| Cell::Int(r.tier.number().into())),
+            Field::new(Column::data("seeds"), |r: &R| Cell::Int(r.metrics.seeds as u64)),
+            Field::new(Column::new("n", "episodes"), |r: &R| Cell::Int(r.metrics.episodes as u64)),
+        ],
+        CellMetrics::outcome_fields("DC").into_iter().map(|f| f.of(|r: &R| &r.metrics)).collect(),
+        vec![
+            Field::new(Column::new("expert", "expert"), |r: &R| Cell::opt(r.expert)),
+            Field::new(Column::new("floor", "always_proceed"), |r: &R| Cell::opt(r.floor)),
+        ],
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let title = "Per tier: success with 95% CI, outcome rates, reward and decision correctness";
+    let mut t = Table::of("tiers", title, &fields, rows);
     t.note("n: episodes. DC: decision correctness. expert / floor: the reference policies' success on the same cell.");
     if rows.iter().any(|r| r.metrics.success.estimate == 0.0 || r.metrics.success.estimate == 1.0) {
         t.note(WILSON_NOTE);
@@ -493,34 +503,24 @@ pub(crate) fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<Outcome
 }
 
 pub(crate) fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier]) -> Table {
-    let mut t = Table::new(
-        "outcomes",
-        format!("Outcome decomposition ({})", tiers_label(tiers)),
-        vec![
-            Column::new("model", "model"),
-            Column::new("scenario", "scenario"),
-            Column::new("n", "episodes"),
-            Column::new("success", "success_rate"),
-            Column::new("collision", "collision_rate"),
-            Column::new("timeout", "timeout_rate"),
-            Column::new("DC", "decision_correctness"),
-            Column::display("DC - success").style(Style::Signed),
-            Column::new("reward", "mean_reward"),
-        ],
-    );
-    for r in rows {
-        t.push(vec![
-            Cell::text(&r.model),
-            Cell::text(r.scenario.to_string()),
-            Cell::Int(r.episodes as u64),
-            Cell::Float(r.success_rate),
-            Cell::Float(r.collision_rate),
-            Cell::Float(r.timeout_rate),
-            Cell::Float(r.decision_correctness),
-            Cell::Float(r.decision_correctness - r.success_rate),
-            Cell::Float(r.mean_reward),
-        ]);
-    }
+    type R = OutcomeRow;
+    let rate = |header: &str, key: &str, value: fn(&R) -> f64| {
+        Field::new(Column::new(header, key), move |r: &R| Cell::Float(value(r)))
+    };
+    let fields: [Field<R>; 9] = [
+        Field::new(Column::new("model", "model"), |r: &R| Cell::text(&r.model)),
+        Field::new(Column::new("scenario", "scenario"), |r: &R| Cell::text(r.scenario.to_string())),
+        Field::new(Column::new("n", "episodes"), |r: &R| Cell::Int(r.episodes as u64)),
+        rate("success", "success_rate", |r| r.success_rate),
+        rate("collision", "collision_rate", |r| r.collision_rate),
+        rate("timeout", "timeout_rate", |r| r.timeout_rate),
+        rate("DC", "decision_correctness", |r| r.decision_correctness),
+        Field::new(Column::display("DC - success").style(Style::Signed), |r: &R| {
+            Cell::Float(r.decision_correctness - r.success_rate)
+        }),
+        rate("reward", "mean_reward", |r| r.mean_reward),
+    ];
+    let mut t = Table::of("outcomes", format!("Outcome decomposition ({})", tiers_label(tiers)), &fields, rows);
     t.note("DC - success > 0: right calls that did not become successes (typically over-caution ending in a timeout).");
     t
 }
@@ -606,73 +606,55 @@ pub(crate) fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
 /// Display: turns and latency with their rate and p95 in parentheses;
 /// the CSV has every figure in its own column.
 pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
-    let mut t = Table::new(
-        "errors_cost",
-        "Errors, tokens and latency (all episodes)",
-        vec![
-            Column::new("model", "model"),
-            Column::data("runs"),
-            Column::new("episodes", "episodes"),
-            Column::data("turns"),
-            Column::display("parse-error turns"),
-            Column::data("parse_error_turns"),
-            Column::data("parse_error_rate"),
-            Column::new("episodes with parse errors", "episodes_with_parse_errors"),
-            Column::display("truncated turns"),
-            Column::data("truncated_turns"),
-            Column::data("truncated_rate"),
-            Column::new("errored", "infra_errors"),
-            Column::new("missing", "missing"),
-            Column::new("retries", "retries"),
-            Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole),
-            Column::data("prompt_tokens_per_episode"),
-            Column::new("completion tokens/ep", "completion_tokens_per_episode").style(Style::Whole),
-            Column::display("cached"),
-            Column::data("cached_share"),
-            Column::display("cost (USD)"),
-            Column::data("cost_usd"),
-            Column::display("latency s/ep (p95)"),
-            Column::data("latency_s_per_episode"),
-            Column::data("latency_s_per_episode_p95"),
-            Column::new("ms/turn", "latency_ms_per_turn").style(Style::Whole),
-        ],
-    );
-    for r in rows {
-        let share = 100.0 * if r.turns == 0 { 0.0 } else { r.parse_error_rate };
-        t.push(vec![
-            Cell::text(&r.model),
-            Cell::Int(r.runs as u64),
-            Cell::Int(r.episodes as u64),
-            Cell::Int(r.turns),
-            Cell::WithParen(Box::new(Cell::Int(r.parse_error_turns)), Box::new(Cell::Percent(share))),
-            Cell::Int(r.parse_error_turns),
-            Cell::Float(r.parse_error_rate),
-            Cell::Int(r.episodes_with_parse_errors as u64),
-            Cell::WithParen(
-                Box::new(Cell::Int(r.truncated_turns)),
-                Box::new(Cell::Percent(100.0 * if r.turns == 0 { 0.0 } else { r.truncated_rate })),
-            ),
-            Cell::Int(r.truncated_turns),
-            Cell::Float(r.truncated_rate),
-            Cell::Int(r.infra_errors as u64),
-            r.missing.map_or(Cell::Unknown, |m| Cell::Int(m as u64)),
-            Cell::Int(r.retries),
-            Cell::Float(r.tokens_per_episode),
-            Cell::Float(r.prompt_tokens_per_episode),
-            Cell::Float(r.completion_tokens_per_episode),
-            if r.cached_share.is_finite() { Cell::Percent(100.0 * r.cached_share) } else { Cell::Missing },
-            Cell::Float(r.cached_share),
-            Cell::text(crate::rundir::usd_or_unknown(r.cost_usd)),
-            r.cost_usd.map_or(Cell::Unknown, Cell::Float),
+    type R = CostRow;
+    let int = |column: Column, value: fn(&R) -> u64| Field::new(column, move |r: &R| Cell::Int(value(r)));
+    let float = |column: Column, value: fn(&R) -> f64| Field::new(column, move |r: &R| Cell::Float(value(r)));
+    // A count with its share of the turns, as displayed: "12 (3.4%)".
+    let with_share = |header: &str, count: fn(&R) -> u64, rate: fn(&R) -> f64| {
+        Field::new(Column::display(header), move |r: &R| {
+            let share = 100.0 * if r.turns == 0 { 0.0 } else { rate(r) };
+            Cell::WithParen(Box::new(Cell::Int(count(r))), Box::new(Cell::Percent(share)))
+        })
+    };
+    let fields: [Field<R>; 25] = [
+        Field::new(Column::new("model", "model"), |r: &R| Cell::text(&r.model)),
+        int(Column::data("runs"), |r| r.runs as u64),
+        int(Column::new("episodes", "episodes"), |r| r.episodes as u64),
+        int(Column::data("turns"), |r| r.turns),
+        with_share("parse-error turns", |r| r.parse_error_turns, |r| r.parse_error_rate),
+        int(Column::data("parse_error_turns"), |r| r.parse_error_turns),
+        float(Column::data("parse_error_rate"), |r| r.parse_error_rate),
+        int(Column::new("episodes with parse errors", "episodes_with_parse_errors"), |r| {
+            r.episodes_with_parse_errors as u64
+        }),
+        with_share("truncated turns", |r| r.truncated_turns, |r| r.truncated_rate),
+        int(Column::data("truncated_turns"), |r| r.truncated_turns),
+        float(Column::data("truncated_rate"), |r| r.truncated_rate),
+        int(Column::new("errored", "infra_errors"), |r| r.infra_errors as u64),
+        Field::new(Column::new("missing", "missing"), |r: &R| r.missing.map_or(Cell::Unknown, |m| Cell::Int(m as u64))),
+        int(Column::new("retries", "retries"), |r| r.retries),
+        float(Column::new("tokens/ep", "tokens_per_episode").style(Style::Whole), |r| r.tokens_per_episode),
+        float(Column::data("prompt_tokens_per_episode"), |r| r.prompt_tokens_per_episode),
+        float(Column::new("completion tokens/ep", "completion_tokens_per_episode").style(Style::Whole), |r| {
+            r.completion_tokens_per_episode
+        }),
+        Field::new(Column::display("cached"), |r: &R| {
+            if r.cached_share.is_finite() { Cell::Percent(100.0 * r.cached_share) } else { Cell::Missing }
+        }),
+        float(Column::data("cached_share"), |r| r.cached_share),
+        Field::new(Column::display("cost (USD)"), |r: &R| Cell::text(crate::rundir::usd_or_unknown(r.cost_usd))),
+        Field::new(Column::data("cost_usd"), |r: &R| r.cost_usd.map_or(Cell::Unknown, Cell::Float)),
+        Field::new(Column::display("latency s/ep (p95)"), |r: &R| {
             Cell::WithParen(
                 Box::new(Cell::Float(r.latency_s_per_episode)),
                 Box::new(Cell::Float(r.latency_s_per_episode_p95)),
-            ),
-            Cell::Float(r.latency_s_per_episode),
-            Cell::Float(r.latency_s_per_episode_p95),
-            Cell::Float(r.latency_ms_per_turn),
-        ]);
-    }
+            )
+        }),
+        float(Column::data("latency_s_per_episode"), |r| r.latency_s_per_episode),
+        float(Column::data("latency_s_per_episode_p95"), |r| r.latency_s_per_episode_p95),
+        float(Column::new("ms/turn", "latency_ms_per_turn").style(Style::Whole), |r| r.latency_ms_per_turn),
+    ];
+    let mut t = Table::of("errors_cost", "Errors, tokens and latency (all episodes)", &fields, rows);
     t.note(
         "Parse errors are bad driving (the turn executed the conservative stop) and count in every score. errored: \
          requests failed after every retry (errors.jsonl); missing: never started (interrupted, budget). Both are \

@@ -9,7 +9,7 @@
 use super::load::ModelData;
 use super::reference::{CEILING, References};
 use crate::episode::{evidence_lag, guess_rate};
-use crate::export::{Cell, Column, Style, Table};
+use crate::export::{Cell, Column, Field, Style, Table};
 use crate::scenario::{ScenarioKind, Tier};
 use crate::stats::{Interval, wilson_ci};
 use serde::Serialize;
@@ -74,31 +74,22 @@ fn finite(x: f64) -> Cell {
 }
 
 pub(crate) fn table(rows: &[TimingRow], tiers: &[Tier]) -> Table {
-    let columns = vec![
-        Column::new("model", "model"),
-        Column::new("scenario", "scenario").style(Style::Code),
-        Column::new("episodes", "episodes"),
-        Column::new("committed", "committed"),
-        Column::new("guess rate", "guess_rate").style(Style::Interval),
-        Column::new("expert guess", "expert_guess_rate"),
-        Column::new("lag (turns)", "evidence_lag"),
-        Column::new("expert lag", "expert_evidence_lag"),
-        Column::new("success", "success"),
+    type R = TimingRow;
+    let fields: [Field<R>; 9] = [
+        Field::new(Column::new("model", "model"), |r: &R| Cell::text(r.model.clone())),
+        Field::new(Column::new("scenario", "scenario").style(Style::Code), |r: &R| Cell::text(r.scenario.to_string())),
+        Field::new(Column::new("episodes", "episodes"), |r: &R| Cell::Int(r.episodes as u64)),
+        Field::new(Column::new("committed", "committed"), |r: &R| Cell::Int(r.committed as u64)),
+        Field::new(Column::new("guess rate", "guess_rate").style(Style::Interval), |r: &R| {
+            if r.committed == 0 { Cell::Missing } else { Cell::Interval(r.guess_rate) }
+        }),
+        Field::new(Column::new("expert guess", "expert_guess_rate"), |r: &R| Cell::opt(r.expert_guess_rate)),
+        Field::new(Column::new("lag (turns)", "evidence_lag"), |r: &R| finite(r.evidence_lag)),
+        Field::new(Column::new("expert lag", "expert_evidence_lag"), |r: &R| Cell::opt(r.expert_evidence_lag)),
+        Field::new(Column::new("success", "success"), |r: &R| Cell::Float(r.success)),
     ];
-    let mut t = Table::new("timing", format!("Evidence timing ({})", super::tables::tiers_label(tiers)), columns);
-    for r in rows {
-        t.push(vec![
-            Cell::text(r.model.clone()),
-            Cell::text(r.scenario.to_string()),
-            Cell::Int(r.episodes as u64),
-            Cell::Int(r.committed as u64),
-            if r.committed == 0 { Cell::Missing } else { Cell::Interval(r.guess_rate) },
-            Cell::opt(r.expert_guess_rate),
-            finite(r.evidence_lag),
-            Cell::opt(r.expert_evidence_lag),
-            Cell::Float(r.success),
-        ]);
-    }
+    let title = format!("Evidence timing ({})", super::tables::tiers_label(tiers));
+    let mut t = Table::of("timing", title, &fields, rows);
     t.note(
         "Guess rate: share of the episodes with a commitment whose commitment \
          turn came before the evidence turn, or that had no evidence; 95% Wilson interval. Lag: mean turns from the \
