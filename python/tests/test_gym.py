@@ -122,6 +122,51 @@ def test_nothing_before_the_evidence_depends_on_the_disposition(env_server: str)
     assert compared > 100
 
 
+def test_the_pipelined_vector_plays_the_episodes_stable_baselines_own_vector_plays(env_server: str) -> None:
+    """PipelinedVecEnv sends every action (and every finished episode's
+    reset) before it reads an answer; stable-baselines3's DummyVecEnv steps
+    one environment after another. On the same seeds and actions, through
+    several episode ends, both give the same observations, rewards, ends
+    and infos."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from negotiator_gym.vec import PipelinedVecEnv
+
+    def make(tier: int) -> Any:
+        return lambda: NegotiatorEnv(scenario="contested_merge", tier=tier, base_url=env_server)
+
+    fns = [make(tier) for tier in TIERS]
+    pipelined, reference = PipelinedVecEnv(fns), DummyVecEnv(fns)
+    try:
+        for vec in (pipelined, reference):
+            vec.seed(7)
+        first, ref_first = pipelined.reset(), reference.reset()
+        assert isinstance(first, np.ndarray) and isinstance(ref_first, np.ndarray)
+        assert np.array_equal(first, ref_first)
+        space = pipelined.action_space
+        assert isinstance(space, gym.spaces.Discrete)
+        actions = np.random.default_rng(3).integers(0, int(space.n), size=(80, len(fns)))
+        ends = 0
+        for step in actions:
+            obs, rewards, dones, infos = pipelined.step(step)
+            ref_obs, ref_rewards, ref_dones, ref_infos = reference.step(step)
+            assert isinstance(obs, np.ndarray) and isinstance(ref_obs, np.ndarray)
+            assert np.array_equal(obs, ref_obs) and np.array_equal(rewards, ref_rewards)
+            assert np.array_equal(dones, ref_dones)
+            for info, ref_info in zip(infos, ref_infos):
+                terminal = info.pop("terminal_observation", None)
+                ref_terminal = ref_info.pop("terminal_observation", None)
+                assert (terminal is None) == (ref_terminal is None)
+                if terminal is not None:
+                    assert np.array_equal(terminal, ref_terminal)
+                assert info == ref_info
+            ends += int(dones.sum())
+        assert ends >= 2 * len(fns), "several episodes ended in every environment"
+    finally:
+        pipelined.close()
+        reference.close()
+
+
 def test_a_local_server_starts_and_stops_with_the_environment() -> None:
     env = NegotiatorEnv(scenario="contested_merge", tier=2)
     assert env._local is not None

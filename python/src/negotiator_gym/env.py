@@ -146,18 +146,28 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        self.send_reset(seed=seed)
+        return self.receive_reset()
+
+    def send_reset(self, *, seed: int | None = None) -> None:
+        """The first half of `reset`: draw the episode's seed (or take
+        `seed`) and ask for the episode without waiting for it
+        (`PipelinedVecEnv` sends every finished environment's reset before
+        reading any)."""
         super().reset(seed=seed)
         if seed is not None:
             episode_seed = int(seed)
         else:
             episode_seed = int(self.np_random.integers(*_DRAWN_SEEDS))
         view = "full" if self.render_mode == "ansi" else "features"
-        answer = self._send(
-            "reset", {"scenario": self.scenario, "tier": self.tier, "seed": episode_seed, "view": view}
-        )
+        self._post("reset", {"scenario": self.scenario, "tier": self.tier, "seed": episode_seed, "view": view})
         self.episode_seed = episode_seed
+
+    def receive_reset(self) -> tuple[np.ndarray, dict[str, Any]]:
+        """The second half of `reset`: the episode's first observation."""
+        answer = self._receive()
         self._done = False
-        return self._observe(answer), {"seed": episode_seed}
+        return self._observe(answer), {"seed": self.episode_seed}
 
     def step(self, action: np.int64 | int) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         self.send_step(action)
