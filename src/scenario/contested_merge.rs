@@ -27,8 +27,9 @@
 //!   its patience in all (drawn per seed; keeping pace in between does not
 //!   reset it) or braked hard close to the merge point, takes its turn: it
 //!   passes only a little faster than the ego (braking with an ego that
-//!   brakes) until it has cleared the merge point, and pulls away gently,
-//!   the follower closing the door behind it;
+//!   brakes, and ahead of it gathering speed gently however hard the ego
+//!   accelerates) until it has cleared the merge point, and pulls away
+//!   gently, the follower closing the door behind it;
 //! - tier 3 (merge bluff): both dispositions first ease off (more gently
 //!   than on tier 1) to `floor_fraction` of the cruise; only a car making
 //!   room slows further. Once its easing off is on show, the bluffer closes
@@ -59,7 +60,9 @@
 //!   little faster than it goes and pulls away gently, so waiting for both
 //!   lane cars costs more than the turn budget leaves; dragging it up to
 //!   speed first and then braking hard does not help, since it brakes
-//!   with the ego until it has cleared the merge point;
+//!   with the ego until it has cleared the merge point, and neither does
+//!   stopping and then accelerating hard behind it (PPO's play, see
+//!   docs/rl.md), since ahead of the ego it speeds up only gently;
 //! - surging and lulling (keeping pace in bursts to arrive just behind a
 //!   committed car while holding a car making room): the patience is
 //!   cumulative, so the lulls add up and the car takes its turn.
@@ -546,7 +549,11 @@ impl MergeWorld {
             let behind = (-rel).max(0.0);
             let target =
                 (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.cruise + p.deny_extra_mps);
-            let up = if behind > 0.0 || ego.v + p.pass_margin_mps > lane.v {
+            // Drawing level with an ego beside it is brisk; ahead of the
+            // ego it gathers speed gently, however hard the ego behind it
+            // accelerates (an ego cannot drag it through the merge point).
+            let beside = rel < CAR_LENGTH + 1.0;
+            let up = if behind > 0.0 || (beside && ego.v + p.pass_margin_mps > lane.v) {
                 p.deny_accel_mps2
             } else {
                 p.resume_accel_mps2

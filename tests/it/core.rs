@@ -455,6 +455,32 @@ fn blind_merge_plays_win_under_one_disposition_at_most() {
     }
 }
 
+/// The play PPO found on the merge's tier 1 (docs/rl.md), replayed: brake
+/// to a stop so that the car making room takes its turn, then accelerate
+/// hard right behind the platoon, dragging it through the merge point (a
+/// car taking its turn kept just ahead of the ego, however hard the ego
+/// accelerated), and merge behind it. Ahead of the ego, a car taking its
+/// turn now gathers speed gently, and the play runs out of turns.
+#[test]
+fn dragging_the_platoon_through_the_merge_point_does_not_win() {
+    let stop = Action::new(Maneuver::Stop, 0.5);
+    let go = |a: f64| Action::new(Maneuver::Proceed, a);
+    let mut actions = vec![stop; 4];
+    actions.extend([go(1.0); 7]);
+    actions.extend([stop, Action::new(Maneuver::Yield, 0.6), go(0.6), go(0.3), go(0.6), go(0.0), go(0.0)]);
+    actions.extend([go(0.6), go(0.6), go(0.0), go(0.0), go(0.0), go(0.6), go(0.0)]);
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::ContestedMerge);
+    let mut ep = Episode::with_disposition(config, Tier::T1, 10002, negotiator::scenario::Disposition::MakesRoom);
+    for action in actions.iter().chain(std::iter::repeat(&go(0.0))) {
+        if ep.is_done() {
+            break;
+        }
+        ep.step(*action);
+    }
+    assert_ne!(ep.finish().outcome, Outcome::Success);
+}
+
 /// The built-in scenarios with one scenario file edited: each `(from, to)`
 /// replaces text that must be there.
 fn planted_set(builtin: &str, edits: &[(&str, &str)]) -> ScenarioSet {
