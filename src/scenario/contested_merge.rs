@@ -27,8 +27,8 @@
 //!   its patience in all (drawn per seed; keeping pace in between does not
 //!   reset it) or braked hard close to the merge point, takes its turn: it
 //!   passes only a little faster than the ego (braking with an ego that
-//!   brakes, and ahead of it gathering speed gently however hard the ego
-//!   accelerates) until it has cleared the merge point, and pulls away
+//!   brakes, and, once wholly ahead of it, holding its pace however the
+//!   ego accelerates) until it has cleared the merge point, and pulls away
 //!   gently, the follower closing the door behind it;
 //! - tier 3 (merge bluff): both dispositions first ease off (more gently
 //!   than on tier 1) to `floor_fraction` of the cruise; only a car making
@@ -61,8 +61,8 @@
 //!   lane cars costs more than the turn budget leaves; dragging it up to
 //!   speed first and then braking hard does not help, since it brakes
 //!   with the ego until it has cleared the merge point, and neither does
-//!   stopping and then accelerating hard behind it (PPO's play, see
-//!   docs/rl.md), since ahead of the ego it speeds up only gently;
+//!   stopping and then accelerating behind it to pull it through (PPO's
+//!   plays, see docs/rl.md), since ahead of the ego it holds its pace;
 //! - surging and lulling (keeping pace in bursts to arrive just behind a
 //!   committed car while holding a car making room): the patience is
 //!   cumulative, so the lulls add up and the car takes its turn.
@@ -547,12 +547,14 @@ impl MergeWorld {
             // Near the ego on the ramp: keep just ahead of it (catching up
             // if behind), however it moves, so that it cannot cut in ahead.
             let behind = (-rel).max(0.0);
-            let target =
-                (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.cruise + p.deny_extra_mps);
-            // Drawing level with an ego beside it is brisk; ahead of the
-            // ego it gathers speed gently, however hard the ego behind it
-            // accelerates (an ego cannot drag it through the merge point).
             let beside = rel < CAR_LENGTH + 1.0;
+            let pace =
+                (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.cruise + p.deny_extra_mps);
+            // Drawing level with an ego beside it is brisk. Wholly ahead of
+            // the ego it holds its pace until it has cleared the merge
+            // point (slowing with an ego that slows), however the ego behind
+            // it accelerates: an ego cannot pull it through the merge point.
+            let target = if beside { pace } else { pace.min(lane.v.max(p.pass_speed_mps)) };
             let up = if behind > 0.0 || (beside && ego.v + p.pass_margin_mps > lane.v) {
                 p.deny_accel_mps2
             } else {
