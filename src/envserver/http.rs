@@ -96,7 +96,7 @@ fn body_object(body: &[u8]) -> Result<Map<String, Value>, Vec<FieldError>> {
     }
     let value = serde_json::from_slice::<Value>(body)
         .map_err(|e| vec![FieldError::whole("json_invalid", format!("JSON decode error: {e}"))])?;
-    super::request::object(&value, "a JSON object").cloned().map_err(|e| vec![e])
+    super::request::into_object(value, "a JSON object").map_err(|e| vec![e])
 }
 
 /// A session's refusal of what the body at `at` asked.

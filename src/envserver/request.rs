@@ -112,7 +112,19 @@ impl FieldErrors {
 
 /// A JSON value as the object a part must be; `expected` says what it holds.
 pub(crate) fn object<'a>(value: &'a Value, expected: &str) -> Result<&'a Map<String, Value>, FieldError> {
-    value.as_object().ok_or_else(|| FieldError::whole("dict_type", format!("expected {expected}")))
+    value.as_object().ok_or_else(|| not_an_object(expected))
+}
+
+/// [`object`], taking the value (a request body is read once, not copied).
+pub(crate) fn into_object(value: Value, expected: &str) -> Result<Map<String, Value>, FieldError> {
+    match value {
+        Value::Object(map) => Ok(map),
+        _ => Err(not_an_object(expected)),
+    }
+}
+
+fn not_an_object(expected: &str) -> FieldError {
+    FieldError::whole("dict_type", format!("expected {expected}"))
 }
 
 /// The field names of one kind of message or part: the ones it must carry,

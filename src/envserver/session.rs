@@ -108,6 +108,17 @@ pub(crate) struct ResetRequest {
 }
 
 impl ResetRequest {
+    /// Read a WebSocket reset's `data`: null (or absent) for every default,
+    /// else an object of reset fields.
+    pub fn from_data(data: &Value) -> Result<ResetRequest, SessionError> {
+        if data.is_null() {
+            return ResetRequest::from_fields(&Map::new());
+        }
+        let fields =
+            super::request::object(data, "an object of reset fields").map_err(|e| SessionError::Invalid(vec![e]))?;
+        ResetRequest::from_fields(fields)
+    }
+
     /// Read a reset's `data`. Unknown fields are refused (a misspelt
     /// `senario` would otherwise silently play the default).
     pub fn from_fields(data: &Map<String, Value>) -> Result<ResetRequest, SessionError> {

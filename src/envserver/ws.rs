@@ -14,7 +14,7 @@ use super::{AtCapacity, wire};
 use axum::extract::State;
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
 use axum::response::Response;
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
 use std::sync::Arc;
 use std::sync::atomic::Ordering::Relaxed;
 use tokio::sync::watch;
@@ -95,9 +95,8 @@ fn outgoing<T: serde::Serialize>(kind: &'static str, data: &T) -> String {
 /// The names each kind of message takes: `type`, and `data` where it
 /// carries something (a step must).
 fn names(kind: &str) -> Option<Names> {
-    let with_data = |required| Some(Names { required, optional: &["data"] });
     match kind {
-        "reset" | "mcp" => with_data(&["type"]),
+        "reset" | "mcp" => Some(Names { required: &["type"], optional: &["data"] }),
         "step" => Some(Names { required: &["type", "data"], optional: &[] }),
         "state" | "close" => Some(Names { required: &["type"], optional: &[] }),
         _ => None,
@@ -123,11 +122,8 @@ fn ws_message(state: &EnvServerState, session: &mut Session, text: &str) -> WsRe
     }
     let data = fields.get("data").unwrap_or(&Value::Null);
     let reply = match kind {
-        "reset" => reset_fields(data).and_then(|fields| {
-            ResetRequest::from_fields(fields).map(|request| {
-                session.reset(&state.scenarios, request, || state.draw_seed(), || state.new_episode_id())
-            })
-        }),
+        "reset" => ResetRequest::from_data(data)
+            .map(|request| session.reset(&state.scenarios, request, || state.draw_seed(), || state.new_episode_id())),
         "step" => session.step(data).inspect(|r| {
             state.stats.steps.fetch_add(1, Relaxed);
             if r.done {
@@ -148,15 +144,6 @@ fn ws_message(state: &EnvServerState, session: &mut Session, text: &str) -> WsRe
             })
         }
     }
-}
-
-/// A reset's `data`: its fields (none, or null, for every default).
-fn reset_fields(data: &Value) -> Result<&Map<String, Value>, SessionError> {
-    static NONE: std::sync::LazyLock<Map<String, Value>> = std::sync::LazyLock::new(Map::new);
-    if data.is_null() {
-        return Ok(&NONE);
-    }
-    request::object(data, "an object of reset fields").map_err(|e| SessionError::Invalid(vec![e]))
 }
 
 fn invalid(errors: Vec<FieldError>) -> Value {
@@ -258,6 +245,7 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
 mod tests {
     use super::*;
     use crate::envserver::tests::state;
+    use serde_json::Map;
 
     fn send_text(state: &EnvServerState, session: &mut Session, text: &str) -> Value {
         match ws_message(state, session, text) {
