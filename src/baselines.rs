@@ -99,9 +99,7 @@ impl CellSummary {
 /// The grid as a table: one row per cell, every figure with its interval.
 pub(crate) fn table(cells: &[CellSummary]) -> Table {
     let figure = |header: &str, key: &str, value: fn(&CellSummary) -> Interval| {
-        Field::new(Column::new(header, key).style(Style::Interval), move |c: &CellSummary| {
-            export::Cell::Interval(value(c))
-        })
+        Field::interval(Column::new(header, key).style(Style::Interval), value)
     };
     let fields: Vec<Field<CellSummary>> = [
         key_fields(),

@@ -298,10 +298,9 @@ impl BeliefSummary {
 /// The belief metrics as table fields: what every belief table shows after
 /// its key columns (eval's summary, the baselines table, the report).
 pub(crate) fn fields() -> Vec<crate::export::Field<'static, BeliefSummary>> {
-    use crate::export::{Cell, Column, Field};
-    let field = |header: &str, key: &str, value: fn(&BeliefSummary) -> f64| {
-        Field::new(Column::new(header, key), move |b: &BeliefSummary| Cell::Float(value(b)))
-    };
+    use crate::export::{Column, Field};
+    type F = Field<'static, BeliefSummary>;
+    let field = |header: &str, key: &str, value: fn(&BeliefSummary) -> f64| F::float(Column::new(header, key), value);
     vec![
         field("Brier before", "brier_before", |b| b.brier_before),
         field("ideal before", "ideal_brier_before", |b| b.ideal_brier_before),

@@ -88,17 +88,14 @@ impl CellMetrics {
     /// The outcome figures as table fields (their keys are the field
     /// names), for any table that shows a cell's metrics.
     pub(crate) fn outcome_fields(correctness_header: &str) -> Vec<crate::export::Field<'static, CellMetrics>> {
-        use crate::export::{Cell, Column, Field, Style};
+        use crate::export::{Column, Field, Style};
+        type F = Field<'static, CellMetrics>;
         vec![
-            Field::new(Column::new("success [95% CI]", "success").style(Style::Interval), |m: &CellMetrics| {
-                Cell::Interval(m.success)
-            }),
-            Field::new(Column::new("collision", "collision_rate"), |m: &CellMetrics| Cell::Float(m.collision_rate)),
-            Field::new(Column::new("timeout", "timeout_rate"), |m: &CellMetrics| Cell::Float(m.timeout_rate)),
-            Field::new(Column::new("reward", "mean_reward"), |m: &CellMetrics| Cell::Float(m.mean_reward)),
-            Field::new(Column::new(correctness_header, "decision_correctness"), |m: &CellMetrics| {
-                Cell::Float(m.decision_correctness)
-            }),
+            F::interval(Column::new("success [95% CI]", "success").style(Style::Interval), |m| m.success),
+            F::float(Column::new("collision", "collision_rate"), |m| m.collision_rate),
+            F::float(Column::new("timeout", "timeout_rate"), |m| m.timeout_rate),
+            F::float(Column::new("reward", "mean_reward"), |m| m.mean_reward),
+            F::float(Column::new(correctness_header, "decision_correctness"), |m| m.decision_correctness),
         ]
     }
 }

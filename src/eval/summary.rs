@@ -84,7 +84,7 @@ pub fn summarize(model: &str, cells: &[(ScenarioKind, Tier, Vec<EpisodeScalars>,
 /// The leaderboard as a table: one row per (scenario, tier).
 pub(crate) fn table(summary: &Summary) -> Table {
     let metric = |header: &str, key: &str, value: fn(&CellMetrics) -> f64| {
-        Field::new(Column::new(header, key), move |s: &CellSummary| Cell::Float(value(&s.metrics)))
+        Field::float(Column::new(header, key), move |s: &CellSummary| value(&s.metrics))
     };
     let fields: Vec<Field<CellSummary>> = [
         key_fields(),

@@ -210,6 +210,21 @@ impl<'a, R: ?Sized + 'a> Field<'a, R> {
         Field { column, cell: Box::new(cell) }
     }
 
+    /// A column of numbers, each read by `value`.
+    pub(crate) fn float(column: Column, value: impl Fn(&R) -> f64 + 'a) -> Field<'a, R> {
+        Field::new(column, move |row| Cell::Float(value(row)))
+    }
+
+    /// A column of counts, each read by `value`.
+    pub(crate) fn int(column: Column, value: impl Fn(&R) -> u64 + 'a) -> Field<'a, R> {
+        Field::new(column, move |row| Cell::Int(value(row)))
+    }
+
+    /// A column of estimates with their intervals, each read by `value`.
+    pub(crate) fn interval(column: Column, value: impl Fn(&R) -> Interval + 'a) -> Field<'a, R> {
+        Field::new(column, move |row| Cell::Interval(value(row)))
+    }
+
     /// The same column read from the part `part` picks of a larger row (the
     /// metrics of a summary's cell, the belief of a baseline's).
     pub(crate) fn of<S: ?Sized + 'a>(self, part: impl Fn(&S) -> &R + 'a) -> Field<'a, S> {

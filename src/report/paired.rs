@@ -162,7 +162,7 @@ pub(crate) fn all_pairs(models: &[&ModelData], tiers: &[Tier], resamples: usize,
 pub(crate) fn paired_table(rows: &[PairRow], tiers: &[Tier], resamples: usize) -> Table {
     type R = PairRow;
     let count = |header: &str, key: &str, value: fn(&R) -> usize| {
-        Field::new(Column::new(header, key), move |r: &R| Cell::Int(value(r) as u64))
+        Field::int(Column::new(header, key), move |r| value(r) as u64)
     };
     let fields: [Field<R>; 11] = [
         Field::new(Column::new("A", "a"), |r: &R| Cell::text(&r.a)),

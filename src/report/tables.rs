@@ -504,9 +504,7 @@ pub(crate) fn outcome_rows(models: &[&ModelData], tiers: &[Tier]) -> Vec<Outcome
 
 pub(crate) fn outcome_table(rows: &[OutcomeRow], tiers: &[Tier]) -> Table {
     type R = OutcomeRow;
-    let rate = |header: &str, key: &str, value: fn(&R) -> f64| {
-        Field::new(Column::new(header, key), move |r: &R| Cell::Float(value(r)))
-    };
+    let rate = |header: &str, key: &str, value: fn(&R) -> f64| Field::float(Column::new(header, key), value);
     let fields: [Field<R>; 9] = [
         Field::new(Column::new("model", "model"), |r: &R| Cell::text(&r.model)),
         Field::new(Column::new("scenario", "scenario"), |r: &R| Cell::text(r.scenario.to_string())),
@@ -607,8 +605,8 @@ pub(crate) fn cost_rows(models: &[&ModelData]) -> Vec<CostRow> {
 /// the CSV has every figure in its own column.
 pub(crate) fn cost_table(rows: &[CostRow]) -> Table {
     type R = CostRow;
-    let int = |column: Column, value: fn(&R) -> u64| Field::new(column, move |r: &R| Cell::Int(value(r)));
-    let float = |column: Column, value: fn(&R) -> f64| Field::new(column, move |r: &R| Cell::Float(value(r)));
+    let int = |column: Column, value: fn(&R) -> u64| Field::int(column, value);
+    let float = |column: Column, value: fn(&R) -> f64| Field::float(column, value);
     // A count with its share of the turns, as displayed: "12 (3.4%)".
     let with_share = |header: &str, count: fn(&R) -> u64, rate: fn(&R) -> f64| {
         Field::new(Column::display(header), move |r: &R| {
