@@ -2,7 +2,8 @@
 //! `cargo run --release --example blind -- [scenario] [tier] [budget]`
 //! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file instead of the
 //! built-in one; `FULL=1` prints the plans found in full; `SEARCH_SEED=n`
-//! reseeds the search (default 1).
+//! reseeds the search (default 1); `BREAKDOWN=1` prints the best plan's
+//! held-out success under each disposition.
 use negotiator::adversary::{SearchSpec, TRAIN_SEED_BASE, evaluate, search};
 use negotiator::baselines::Cell;
 use negotiator::baselines::run_cell;
@@ -34,6 +35,21 @@ fn main() {
             let f = search(config, t, SearchSpec { budget, train_seed_base: TRAIN_SEED_BASE, search_seed });
             let held_score = evaluate(config, t, &f.best, &held);
             let held_c = evaluate(config, t, &f.best_correctness, &held);
+            if std::env::var("BREAKDOWN").is_ok() {
+                // The best plan's success under each disposition.
+                let mut by: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
+                for &seed in &held {
+                    let d = negotiator::episode::draw_disposition(negotiator::episode::EpisodeSpec {
+                        scenario: s,
+                        tier: t,
+                        seed,
+                    });
+                    let e = by.entry(format!("{d:?}")).or_default();
+                    e.0 += (evaluate(config, t, &f.best, &[seed]).success > 0.5) as usize;
+                    e.1 += 1;
+                }
+                eprintln!("    best by disposition: {by:?}");
+            }
             let stats = |p: PolicyKind| {
                 let recs = run_cell(&set, Cell { scenario: s, tier: t, policy: p }, 400, 0);
                 let n = recs.len() as f64;

@@ -599,10 +599,17 @@ pub fn check_caution(cells: &[CellSummary]) -> Check {
     let mut seen = false;
     let mut worst: Option<(f64, String)> = None;
     let mut worst_collision: Option<(f64, String)> = None;
+    // The scenarios with a cell below a bar, and how many cells in all.
+    let (mut below, mut total) = (Vec::new(), 0usize);
     for c in cells.iter().filter(|c| PolicyKind::CAUTIOUS_READERS.contains(&c.cell.policy)) {
         seen = true;
+        total += 1;
         let (s, k) = (c.success.estimate, c.collision.estimate);
-        pass &= s >= CAUTIOUS_SUCCESS && k <= CAUTIOUS_COLLISION;
+        let holds = s >= CAUTIOUS_SUCCESS && k <= CAUTIOUS_COLLISION;
+        pass &= holds;
+        if !holds {
+            below.push(c.cell.scenario);
+        }
         let at = format!("{} on {}", c.cell.policy, label(c.cell.scenario, c.cell.tier));
         if worst.as_ref().is_none_or(|(w, _)| s < *w) {
             worst = Some((s, at.clone()));
@@ -612,10 +619,18 @@ pub fn check_caution(cells: &[CellSummary]) -> Check {
         }
     }
     let figure = match (worst, worst_collision) {
-        (Some(s), Some(k)) => format!(
-            "lowest success {:.3} ({}, bar {CAUTIOUS_SUCCESS:.2}); highest collision {:.3} ({}, bar {CAUTIOUS_COLLISION:.2})",
-            s.0, s.1, k.0, k.1
-        ),
+        (Some(s), Some(k)) => {
+            let cells_below = below.len();
+            below.sort();
+            below.dedup();
+            let scenarios: Vec<String> = below.iter().map(|k| k.to_string()).collect();
+            let where_below =
+                if below.is_empty() { String::new() } else { format!(" (all on {})", scenarios.join(", ")) };
+            format!(
+                "lowest success {:.3} ({}, bar {CAUTIOUS_SUCCESS:.2}); highest collision {:.3} ({}, bar {CAUTIOUS_COLLISION:.2}); {} of {total} cells below a bar{where_below}",
+                s.0, s.1, k.0, k.1, cells_below
+            )
+        }
         _ => "no cautious cells".into(),
     };
     Check::new("caution not punished", pass && seen, figure)

@@ -920,6 +920,26 @@ fn the_caution_line_holds_cautious_readers_to_their_bar() {
     assert!(!crosswalk.pass, "{}", crosswalk.figure);
 }
 
+/// On the merge, a driver who eases off while unsure reads a car making
+/// room as soon as one at full pace: the cautious readers hold the bar on
+/// every tier, on seeds other than `validate`'s. (They once timed out on a
+/// fifth of tier 1: the rules read "slowing" against the ego's own speed,
+/// and an ego that had eased off saw the car drop back too late.)
+#[test]
+fn the_merge_does_not_punish_caution_on_any_tier() {
+    let set = ScenarioSet::default();
+    let spec = GridSpec {
+        scenarios: vec![ScenarioKind::ContestedMerge],
+        tiers: Tier::ALL.to_vec(),
+        policies: PolicyKind::CAUTIOUS_READERS.to_vec(),
+        episodes: 200,
+        seed_base: 5000,
+    };
+    let check = validate::check_caution(&run_grid(&set, &spec, &|_, _| {}));
+    assert!(check.pass, "{}", check.figure);
+    assert!(check.figure.contains("0 of 6 cells below a bar"), "{}", check.figure);
+}
+
 /// The learned adversary's line passes on the built-in intersection's tier
 /// 3 and catches the hack it once found there: a yielder that, having taken
 /// its turn, pulled away at 4 m/s let a policy that outwaited it still

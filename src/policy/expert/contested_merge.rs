@@ -13,6 +13,8 @@ use crate::sim::CAR_LENGTH;
 const BEHIND_MARGIN_M: f64 = 1.5;
 /// Where the expert stops at the latest: this far before the merge point.
 const WAIT_GAP_M: f64 = 2.0;
+/// A lane car this far below its recent mean speed (m/s) is clearly slowing.
+const SLOWING_MPS: f64 = 1.6;
 /// Until this close to the merge point (m), a lane car that has shown
 /// nothing yet is given the chance to make room.
 const UNDECIDED_UNTIL_M: f64 = 26.0;
@@ -43,10 +45,18 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
 
 /// Whether the lane car is making room: clearly slowing, or holding back
 /// behind the ego's rear no faster than the ego.
+///
+/// Clearly slowing is 1.6 m/s below its mean over the observed history
+/// (twice the noisy tier's speed noise on that difference), which a car
+/// dropping back shows within one decision whatever the ego's own speed: a
+/// driver who eased off while unsure reads it as soon as one at full pace.
+/// A car that is still much faster than the ego is not making room: it may
+/// be coming back down to its cruise after closing a gap hard (the tier-3
+/// bluff).
 fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
     let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
-    let slowing =
-        rel < CAR_LENGTH && (speed_trend(lane_car) < -2.2 || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
+    let dropping_back = speed_trend(lane_car) < -SLOWING_MPS && v < ego_speed + 2.0;
+    let slowing = rel < CAR_LENGTH && (dropping_back || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
     // Behind the ego's centre and no faster: it is letting the ego go.
     let fallen_back = rel < -1.5 && v < ego_speed - 0.5;
     let holding_back = rel < -CAR_LENGTH
@@ -144,5 +154,36 @@ pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, lane_car: &Track, followe
         go()
     } else {
         expert(v, v_max, d, lane_car, follower).action
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observation::Sample;
+
+    fn track(position_m: f64, speeds: [f64; 5]) -> Track {
+        let past = std::array::from_fn(|i| Sample { position_m, velocity_mps: speeds[i] });
+        Track { now: Sample { position_m, velocity_mps: speeds[4] }, past }
+    }
+
+    /// A car dropping back at 3 m/s^2 beside an ego that eased off while
+    /// unsure (traced: merge tier 1, seed 0, `expert_cautious`, t = 1 s) is
+    /// making room, as it is for an ego at full pace.
+    #[test]
+    fn a_car_dropping_back_beside_an_ego_that_eased_off_is_making_room() {
+        let lane_car = track(-0.98, [10.53, 10.53, 10.53, 8.53, 7.90]);
+        assert!(making_room(&lane_car, 9.4));
+        assert!(making_room(&lane_car, 13.0));
+    }
+
+    /// A car coming back down to its cruise after closing the gap hard
+    /// (traced: the tier-3 bluffer, seed 22, t = 3 s) is not making room,
+    /// though it slows as much: it is still far faster than the ego.
+    #[test]
+    fn a_car_settling_after_a_hard_close_is_not_making_room() {
+        let bluffer = track(0.89, [11.86, 14.11, 13.34, 11.84, 10.74]);
+        assert!(speed_trend(&bluffer) < -SLOWING_MPS);
+        assert!(!making_room(&bluffer, 7.0));
     }
 }
