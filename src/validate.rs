@@ -599,7 +599,7 @@ pub fn check_caution(cells: &[CellSummary]) -> Check {
     let mut seen = false;
     let mut worst: Option<(f64, String)> = None;
     let mut worst_collision: Option<(f64, String)> = None;
-    // The scenarios with a cell below a bar, and how many cells in all.
+    // The scenario of each cell below a bar, and how many cells in all.
     let (mut below, mut total) = (Vec::new(), 0usize);
     for c in cells.iter().filter(|c| PolicyKind::CAUTIOUS_READERS.contains(&c.cell.policy)) {
         seen = true;
@@ -623,9 +623,11 @@ pub fn check_caution(cells: &[CellSummary]) -> Check {
             let cells_below = below.len();
             below.sort();
             below.dedup();
-            let scenarios: Vec<String> = below.iter().map(|k| k.to_string()).collect();
-            let where_below =
-                if below.is_empty() { String::new() } else { format!(" (all on {})", scenarios.join(", ")) };
+            let where_below = if below.is_empty() {
+                String::new()
+            } else {
+                format!(" (all on {})", below.iter().map(ToString::to_string).collect::<Vec<_>>().join(", "))
+            };
             format!(
                 "lowest success {:.3} ({}, bar {CAUTIOUS_SUCCESS:.2}); highest collision {:.3} ({}, bar {CAUTIOUS_COLLISION:.2}); {} of {total} cells below a bar{where_below}",
                 s.0, s.1, k.0, k.1, cells_below

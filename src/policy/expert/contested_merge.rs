@@ -13,8 +13,12 @@ use crate::sim::CAR_LENGTH;
 const BEHIND_MARGIN_M: f64 = 1.5;
 /// Where the expert stops at the latest: this far before the merge point.
 const WAIT_GAP_M: f64 = 2.0;
-/// A lane car this far below its recent mean speed (m/s) is clearly slowing.
+/// A lane car this far below its recent mean speed (m/s) is clearly slowing:
+/// twice the noisy tier's speed noise on that difference.
 const SLOWING_MPS: f64 = 1.6;
+/// A slowing lane car still this much faster than the ego (m/s) is not
+/// dropping back but settling to its cruise after closing a gap hard.
+const SETTLING_MARGIN_MPS: f64 = 2.0;
 /// Until this close to the merge point (m), a lane car that has shown
 /// nothing yet is given the chance to make room.
 const UNDECIDED_UNTIL_M: f64 = 26.0;
@@ -46,16 +50,15 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
 /// Whether the lane car is making room: clearly slowing, or holding back
 /// behind the ego's rear no faster than the ego.
 ///
-/// Clearly slowing is 1.6 m/s below its mean over the observed history
-/// (twice the noisy tier's speed noise on that difference), which a car
-/// dropping back shows within one decision whatever the ego's own speed: a
-/// driver who eased off while unsure reads it as soon as one at full pace.
-/// A car that is still much faster than the ego is not making room: it may
-/// be coming back down to its cruise after closing a gap hard (the tier-3
-/// bluff).
+/// Clearly slowing is measured against its own recent speeds
+/// ([`SLOWING_MPS`]), which a car dropping back shows within one decision
+/// whatever the ego's own speed: a driver who eased off while unsure reads
+/// it as soon as one at full pace. A car that is still much faster than the
+/// ego is not making room ([`SETTLING_MARGIN_MPS`]): it may be coming back
+/// down to its cruise after closing a gap hard (the tier-3 bluff).
 fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
     let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
-    let dropping_back = speed_trend(lane_car) < -SLOWING_MPS && v < ego_speed + 2.0;
+    let dropping_back = speed_trend(lane_car) < -SLOWING_MPS && v < ego_speed + SETTLING_MARGIN_MPS;
     let slowing = rel < CAR_LENGTH && (dropping_back || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
     // Behind the ego's centre and no faster: it is letting the ego go.
     let fallen_back = rel < -1.5 && v < ego_speed - 0.5;
