@@ -25,7 +25,8 @@
 //!   could merge behind a committed car) hangs back: the car covers it (its
 //!   front overlapping the ego's rear) and, once the ego has hung back for
 //!   its patience in all (drawn per seed; keeping pace in between does not
-//!   reset it) or braked hard close to the merge point, takes its turn: it
+//!   reset it) or braked hard close to the merge point, takes its turn, at
+//!   a moment the ego hangs back (never while it keeps pace again): it
 //!   passes only a little faster than the ego (braking with an ego that
 //!   brakes, and, once wholly ahead of it, holding its pace however the
 //!   ego accelerates) until it has cleared the merge point, and pulls away
@@ -632,7 +633,9 @@ impl MergeWorld {
             if !pace && t > 0.0 {
                 self.patience.hang_back(dt);
             }
-            let out = self.patience.run_out() || self.ego_brakes_late(ego);
+            // It takes its turn on what the ego does now: an ego that hung
+            // back earlier and keeps pace now is not giving way.
+            let out = (self.patience.run_out() && !pace) || self.ego_brakes_late(ego);
             if shown && out && covering {
                 self.turns_taken += 1;
                 self.phase = Phase::TakeTurn;
@@ -811,5 +814,53 @@ impl World for MergeWorld {
             PlanPoint { x: self.lane_car.s, y: 0.0, v: self.lane_car.v },
             PlanPoint { x: self.follower.s, y: 0.0, v: self.follower.v },
         ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Stream;
+    use crate::sim::DT;
+
+    /// A car making room takes its turn on what the ego does at that
+    /// moment: never while the ego keeps pace (and does not brake late),
+    /// whatever it did earlier. Random egos that surge and lull reach the
+    /// moment the car's patience has run out while it is not yet covering
+    /// them and then keep pace; the car must go on waiting.
+    #[test]
+    fn a_car_making_room_never_takes_its_turn_while_the_ego_keeps_pace() {
+        let body = include_str!("../../scenarios/contested_merge.toml").replace("scenario = \"contested_merge\"", "");
+        let params: MergeParams = toml::from_str(&body).unwrap();
+        let (mut turns, mut surges_after_patience) = (0, 0);
+        for seed in 0..400u64 {
+            let tier = Tier::ALL[(seed % 3) as usize];
+            let mut geometry = EpisodeRng::new(&[seed], Stream::Geometry);
+            let noise = EpisodeRng::new(&[seed], Stream::ObservationNoise);
+            let mut world = MergeWorld::new(&params, tier, Disposition::MakesRoom, &mut geometry, noise);
+            let mut actions = EpisodeRng::new(&[seed], Stream::Policy);
+            let mut ego = world.ego_start;
+            let mut accel = 0.0;
+            for step in 0..200 {
+                let t = step as f64 * DT;
+                if step % 5 == 0 {
+                    accel = -4.0 + 6.5 * actions.unit();
+                }
+                let pace = world.ego_keeps_pace(&ego, t);
+                let late = world.ego_brakes_late(&ego);
+                let before = world.turns_taken;
+                surges_after_patience += (world.patience.run_out() && pace && before == 0) as u32;
+                world.advance(&ego, t, DT);
+                if world.turns_taken > before {
+                    turns += 1;
+                    assert!(
+                        !pace || late || t == 0.0,
+                        "seed {seed} t{tier}: a turn at t = {t:.1} s while the ego kept pace"
+                    );
+                }
+                ego.advance(accel, DT);
+            }
+        }
+        assert!(turns > 50 && surges_after_patience > 50, "{turns} turns, {surges_after_patience} surges");
     }
 }

@@ -386,9 +386,9 @@ impl YieldWorld {
 
     /// A yielder: drive on until a stop at the line takes its braking rate,
     /// brake to the line and wait there for an ego that comes. Once the ego
-    /// has hung back for its patience in all, it takes its turn (never in
-    /// front of an ego that can no longer stop); it also drives on once the
-    /// ego has passed.
+    /// has hung back for its patience in all, it takes its turn at the first
+    /// moment the ego is hanging back *now*; it also drives on once the ego
+    /// has passed.
     fn yielder_accel(&mut self, ego: &Body, dt: f64) -> f64 {
         let to_line = self.other_to_zone() - self.params.other.stop_line_m;
         let rate = match self.tier {
@@ -407,7 +407,13 @@ impl YieldWorld {
                 self.patience.hang_back(dt);
             }
             let passed = ego.s > HALF_ZONE;
-            let turn = self.patience.run_out() && !self.approach(ego).beyond_stopping();
+            // It acts on what the ego does now: an ego that hung back
+            // earlier and is coming on now is no invitation (and one that
+            // could no longer stop at all is coming). Waiting also for an
+            // ego that could no longer stop *firmly* lets a blind creep up
+            // to the zone win tier 3 (docs/validate.md).
+            let gap_now = !self.ego_coming(ego);
+            let turn = self.patience.run_out() && gap_now;
             self.turns_taken += (turn && !passed) as u32;
             if passed || turn {
                 self.phase = Phase::Going { accel: self.params.other.go_accel_mps2 };
