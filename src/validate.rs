@@ -650,6 +650,16 @@ pub fn check_gap_acceptance(unstoppable: &[(Cell, usize)], blind: &[BlindCell]) 
         .filter(|(_, n)| *n > 0)
         .map(|(cell, n)| (*n, format!("{} on {}", cell.policy, label(cell.scenario, cell.tier))))
         .collect();
+    // Per scenario, so that a reader sees which worlds meet the line.
+    let mut by_scenario: Vec<(ScenarioKind, usize)> = ScenarioKind::ALL.iter().map(|&k| (k, 0)).collect();
+    let mut add = |kind: ScenarioKind, n: usize| {
+        if let Some(entry) = by_scenario.iter_mut().find(|(k, _)| *k == kind) {
+            entry.1 += n;
+        }
+    };
+    for (cell, n) in unstoppable {
+        add(cell.scenario, *n);
+    }
     for b in blind {
         // The most correct plan is often the best one: its episodes count once.
         let distinct = b.best_correctness != b.best;
@@ -657,6 +667,7 @@ pub fn check_gap_acceptance(unstoppable: &[(Cell, usize)], blind: &[BlindCell]) 
         for (which, score, _) in plans.into_iter().filter(|p| p.2) {
             episodes += score.episodes;
             if score.unstoppable_turns_taken > 0 {
+                add(b.scenario, score.unstoppable_turns_taken);
                 found.push((score.unstoppable_turns_taken, format!("{which} on {}", label(b.scenario, b.tier))));
             }
         }
@@ -670,8 +681,10 @@ pub fn check_gap_acceptance(unstoppable: &[(Cell, usize)], blind: &[BlindCell]) 
             "0 episodes in which a waiting road user started into an ego that could no longer stop ({cells} policy cells, {episodes} blind episodes)"
         )
     } else {
+        let per: Vec<String> = by_scenario.iter().map(|(k, n)| format!("{k} {n}")).collect();
         format!(
-            "{total} episodes in which a waiting road user started into an ego that could no longer stop, most on {}",
+            "{total} episodes in which a waiting road user started into an ego that could no longer stop ({}), most on {}",
+            per.join(", "),
             examples.join("; ")
         )
     };

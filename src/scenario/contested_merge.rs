@@ -26,7 +26,8 @@
 //!   front overlapping the ego's rear) and, once the ego has hung back for
 //!   its patience in all (drawn per seed; keeping pace in between does not
 //!   reset it) or braked hard close to the merge point, takes its turn, at
-//!   a moment the ego hangs back (never while it keeps pace again): it
+//!   a moment the ego hangs back (never while it keeps pace again) and
+//!   could still stop firmly short of the merge point: it
 //!   passes only a little faster than the ego (braking with an ego that
 //!   brakes, and, once wholly ahead of it, holding its pace however the
 //!   ego accelerates) until it has cleared the merge point, and pulls away
@@ -634,9 +635,12 @@ impl MergeWorld {
                 self.patience.hang_back(dt);
             }
             // It takes its turn on what the ego does now: an ego that hung
-            // back earlier and keeps pace now is not giving way.
+            // back earlier and keeps pace now is not giving way, and one
+            // that could no longer stop firmly short of the merge point is
+            // not offering it (the car keeps covering it until it could).
             let out = (self.patience.run_out() && !pace) || self.ego_brakes_late(ego);
-            if shown && out && covering {
+            let stoppable = EgoApproach::new(self.merge_point - ego.s, ego).can_stop_comfortably();
+            if shown && out && covering && stoppable {
                 self.turns_taken += 1;
                 self.phase = Phase::TakeTurn;
             }
@@ -825,11 +829,13 @@ mod tests {
 
     /// A car making room takes its turn on what the ego does at that
     /// moment: never while the ego keeps pace (and does not brake late),
-    /// whatever it did earlier. Random egos that surge and lull reach the
-    /// moment the car's patience has run out while it is not yet covering
-    /// them and then keep pace; the car must go on waiting.
+    /// whatever it did earlier, and never while the ego could no longer
+    /// stop firmly short of the merge point. Random egos that surge and
+    /// lull reach the moment the car's patience has run out while it is not
+    /// yet covering them and then keep pace, or brake late and hard; the
+    /// car must go on waiting.
     #[test]
-    fn a_car_making_room_never_takes_its_turn_while_the_ego_keeps_pace() {
+    fn a_car_making_room_takes_its_turn_only_while_the_ego_gives_way_now() {
         let body = include_str!("../../scenarios/contested_merge.toml").replace("scenario = \"contested_merge\"", "");
         let params: MergeParams = toml::from_str(&body).unwrap();
         let (mut turns, mut surges_after_patience) = (0, 0);
@@ -848,6 +854,7 @@ mod tests {
                 }
                 let pace = world.ego_keeps_pace(&ego, t);
                 let late = world.ego_brakes_late(&ego);
+                let stoppable = EgoApproach::new(world.merge_point - ego.s, &ego).can_stop_comfortably();
                 let before = world.turns_taken;
                 surges_after_patience += (world.patience.run_out() && pace && before == 0) as u32;
                 world.advance(&ego, t, DT);
@@ -856,6 +863,10 @@ mod tests {
                     assert!(
                         !pace || late || t == 0.0,
                         "seed {seed} t{tier}: a turn at t = {t:.1} s while the ego kept pace"
+                    );
+                    assert!(
+                        stoppable,
+                        "seed {seed} t{tier}: a turn at t = {t:.1} s in front of an ego that could not stop"
                     );
                 }
                 ego.advance(accel, DT);

@@ -897,6 +897,30 @@ fn the_realism_line_catches_a_cumulative_feinter_stepping_into_a_car_that_cannot
     assert!(validate::check_gap_acceptance(&clean, &[]).pass);
 }
 
+/// The merge meets the realism line by construction: over every built-in
+/// policy on every tier, its lane car never takes its turn in front of an
+/// ego that could no longer stop firmly (the noisy tier's expert, braking
+/// late, once met one), and the figure says so per scenario.
+#[test]
+fn the_merge_never_takes_its_turn_in_front_of_an_ego_that_cannot_stop() {
+    use negotiator::baselines::{Cell, run_cell};
+    let set = ScenarioSet::default();
+    let mut counted = Vec::new();
+    for tier in Tier::ALL {
+        for policy in PolicyKind::ALL {
+            let cell = Cell { scenario: ScenarioKind::ContestedMerge, tier, policy };
+            let runs = run_cell(&set, cell, 200, 3000);
+            counted.push((cell, runs.iter().filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0).count()));
+        }
+    }
+    let check = validate::check_gap_acceptance(&counted, &[]);
+    assert!(check.pass, "{}", check.figure);
+    let mut planted = counted.clone();
+    planted[0].1 = 2;
+    let figure = validate::check_gap_acceptance(&planted, &[]).figure;
+    assert!(figure.contains("contested_merge 2"), "{figure}");
+}
+
 /// The cautious readers are held to the expert's bar on every cell: the
 /// check fails on a cell below it (the crosswalk's delayed step-out today,
 /// an open line) and passes on the intersection, where caution is not
