@@ -410,8 +410,9 @@ impl YieldWorld {
             // It acts on what the ego does now: an ego that hung back
             // earlier and is coming on now is no invitation (and one that
             // could no longer stop at all is coming). Waiting also for an
-            // ego that could no longer stop *firmly* lets a blind creep up
-            // to the zone win tier 3 (docs/validate.md).
+            // ego that could no longer stop *firmly* lets a blind plan that
+            // comes on fast and then rolls through win tier 3
+            // (docs/validate.md).
             let gap_now = !self.ego_coming(ego);
             let turn = self.patience.run_out() && gap_now;
             self.turns_taken += (turn && !passed) as u32;
