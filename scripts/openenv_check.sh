@@ -15,7 +15,8 @@
 #      function's episode loop) each play an episode;
 #   5. the Kubernetes manifest is validated offline (kubernetes-validate);
 #   and GenericEnvClient again, through a bearer token (`--token-var`).
-# Usage: scripts/openenv_check.sh   (CI runs it from .ci/run)
+# Usage: scripts/openenv_check.sh [venvs]   (CI runs it from .ci/run; `venvs`
+# only builds the virtual environments)
 # Environment: OPENENV_CHECK_VENVS (default target/openenv-check, reused when
 # present), OPENENV_CHECK_SEEDS (12: each client episode costs about 0.12 s
 # of Python, and CI has 30 minutes), OPENENV_CHECK_EVAL_SEEDS (3), PYTHON.
@@ -27,10 +28,6 @@ seeds=${OPENENV_CHECK_SEEDS:-12}
 eval_seeds=${OPENENV_CHECK_EVAL_SEEDS:-3}
 python=${PYTHON:-python3}
 schedule="yield:0.6:3,nudge_forward:0.5:3,proceed:0.8"
-
-cargo build --release --quiet --bin negotiator
-cargo build --release --quiet --example reference_rollouts
-bin=$root/target/release/negotiator
 
 make_venv() { # dir, packages...
   local dir=$1
@@ -45,6 +42,14 @@ make_venv() { # dir, packages...
 # from elsewhere.
 make_venv "$venvs/verifiers" "verifiers[openenv]==0.4.*" jsonschema uv
 make_venv "$venvs/newest" openenv jsonschema kubernetes-validate
+# `openenv_check.sh venvs` only builds them (CI does, while Rust compiles).
+if [ "${1:-}" = venvs ]; then
+  exit 0
+fi
+
+cargo build --release --quiet --bin negotiator
+cargo build --release --quiet --example reference_rollouts
+bin=$root/target/release/negotiator
 for v in verifiers newest; do
   echo "openenv $("$venvs/$v/bin/python" -c 'import importlib.metadata as m; print(m.version("openenv"))') ($v venv)"
 done

@@ -11,7 +11,8 @@
 #   evidence that depends on the disposition, training and the
 #   reward-hacking regression end to end;
 # then the reward-hacking regression on a committed checkpoint (HACK_CELL).
-# Usage: scripts/python_check.sh   (CI runs it from .ci/run)
+# Usage: scripts/python_check.sh [venv]   (CI runs it from .ci/run; `venv`
+# only builds the virtual environment)
 # Environment: PYTHON_CHECK_VENV (default target/python-check, reused when
 # present), HACK_CELL (default "yield_standoff 1"), PYTHON.
 set -euo pipefail
@@ -20,13 +21,17 @@ root=$(pwd)
 venv=${PYTHON_CHECK_VENV:-$root/target/python-check}
 python=${PYTHON:-python3}
 read -r hack_scenario hack_tier <<<"${HACK_CELL:-yield_standoff 1}"
-cargo build --release --quiet --bin negotiator --example reference_rollouts --example disposition_features
 if [ ! -x "$venv/bin/python" ]; then
   "$python" -m venv "$venv"
   "$venv/bin/pip" install --quiet --upgrade pip
 fi
 # Reinstalled every run: the package is the repository's, not a cached one.
 "$venv/bin/pip" install --quiet "$root/python[test,rl]"
+# `python_check.sh venv` only builds it (CI does, while Rust compiles).
+if [ "${1:-}" = venv ]; then
+  exit 0
+fi
+cargo build --release --quiet --bin negotiator --example reference_rollouts --example disposition_features
 "$venv/bin/python" -c 'import importlib.metadata as m; print(" ".join(f"{p} {m.version(p)}" for p in ["inspect_ai", "gymnasium", "stable_baselines3", "torch"]))'
 export NEGOTIATOR_BIN=$root/target/release/negotiator NEGOTIATOR_EXAMPLES=$root/target/release/examples
 cd "$root/python"
