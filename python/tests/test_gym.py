@@ -122,6 +122,24 @@ def test_nothing_before_the_evidence_depends_on_the_disposition(env_server: str)
     assert compared > 100
 
 
+def same_vector_step(got: Any, want: Any) -> int:
+    """Assert that two vector steps gave the same observations, rewards,
+    ends and infos; the number of episodes that ended."""
+    obs, rewards, dones, infos = got
+    ref_obs, ref_rewards, ref_dones, ref_infos = want
+    assert isinstance(obs, np.ndarray) and isinstance(ref_obs, np.ndarray)
+    assert obs.dtype == ref_obs.dtype and np.array_equal(obs, ref_obs)
+    assert np.array_equal(rewards, ref_rewards) and np.array_equal(dones, ref_dones)
+    for info, ref_info in zip(infos, ref_infos, strict=True):
+        terminal = info.pop("terminal_observation", None)
+        ref_terminal = ref_info.pop("terminal_observation", None)
+        assert (terminal is None) == (ref_terminal is None)
+        if terminal is not None:
+            assert np.array_equal(terminal, ref_terminal)
+        assert info == ref_info
+    return int(dones.sum())
+
+
 def test_the_pipelined_vector_plays_the_episodes_stable_baselines_own_vector_plays(env_server: str) -> None:
     """PipelinedVecEnv sends every action (and every finished episode's
     reset) before it reads an answer; stable-baselines3's DummyVecEnv steps
@@ -148,32 +166,72 @@ def test_the_pipelined_vector_plays_the_episodes_stable_baselines_own_vector_pla
         actions = np.random.default_rng(3).integers(0, int(space.n), size=(80, len(fns)))
         ends = 0
         for step in actions:
-            obs, rewards, dones, infos = pipelined.step(step)
-            ref_obs, ref_rewards, ref_dones, ref_infos = reference.step(step)
-            assert isinstance(obs, np.ndarray) and isinstance(ref_obs, np.ndarray)
-            assert np.array_equal(obs, ref_obs) and np.array_equal(rewards, ref_rewards)
-            assert np.array_equal(dones, ref_dones)
-            for info, ref_info in zip(infos, ref_infos):
-                terminal = info.pop("terminal_observation", None)
-                ref_terminal = ref_info.pop("terminal_observation", None)
-                assert (terminal is None) == (ref_terminal is None)
-                if terminal is not None:
-                    assert np.array_equal(terminal, ref_terminal)
-                assert info == ref_info
-            ends += int(dones.sum())
+            ends += same_vector_step(pipelined.step(step), reference.step(step))
         assert ends >= 2 * len(fns), "several episodes ended in every environment"
     finally:
         pipelined.close()
         reference.close()
 
 
+def test_the_batch_vector_plays_the_episodes_stable_baselines_own_vector_plays(env_server: str) -> None:
+    """BatchVecEnv sends every environment's action in one message on one
+    connection; DummyVecEnv steps one NegotiatorEnv (one connection) after
+    another. From the same seed, through several episode ends (and so
+    through seeds drawn after the first), both give the same observations,
+    rewards, ends and infos."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from negotiator_gym.vec import BatchVecEnv
+
+    n = 5
+    batch = BatchVecEnv(n, scenario="pedestrian_feint", tier=2, base_url=env_server)
+    reference = DummyVecEnv(
+        [lambda: NegotiatorEnv(scenario="pedestrian_feint", tier=2, base_url=env_server) for _ in range(n)]
+    )
+    try:
+        assert batch.observation_space == reference.observation_space
+        assert batch.action_space == reference.action_space
+        for vec in (batch, reference):
+            vec.seed(11)
+        first, ref_first = batch.reset(), reference.reset()
+        assert isinstance(first, np.ndarray) and isinstance(ref_first, np.ndarray)
+        assert np.array_equal(first, ref_first)
+        assert batch.reset_infos == reference.reset_infos
+        space = batch.action_space
+        assert isinstance(space, gym.spaces.Discrete)
+        actions = np.random.default_rng(5).integers(0, int(space.n), size=(90, n))
+        ends = 0
+        for step in actions:
+            ends += same_vector_step(batch.step(step), reference.step(step))
+            assert batch.reset_infos == reference.reset_infos
+        assert ends >= 2 * n, "several episodes ended in every environment"
+        assert batch.get_attr("episode_seed") == reference.get_attr("episode_seed")
+    finally:
+        batch.close()
+        reference.close()
+
+
+def test_the_batch_vector_refuses_what_it_cannot_hold(env_server: str) -> None:
+    from negotiator_gym.vec import MAX_BATCH_SESSIONS, BatchVecEnv
+
+    with pytest.raises(ValueError, match="1 to 64"):
+        BatchVecEnv(MAX_BATCH_SESSIONS + 1, base_url=env_server)
+    with pytest.raises(ValueError, match="unknown scenario"):
+        BatchVecEnv(2, scenario="roundabout", base_url=env_server)
+
+
 def test_a_local_server_starts_and_stops_with_the_environment() -> None:
+    from negotiator_gym.vec import BatchVecEnv
+
     env = NegotiatorEnv(scenario="contested_merge", tier=2)
-    assert env._local is not None
-    process = env._local.process
-    env.reset(seed=0)
-    env.close()
-    assert process.poll() is not None
+    vec = BatchVecEnv(2, scenario="contested_merge", tier=2)
+    for holder in (env, vec):
+        local = holder._endpoint._local
+        assert local is not None
+        process = local.process
+        holder.reset()
+        holder.close()
+        assert process.poll() is not None
 
 
 def test_bad_arguments_are_refused_with_the_choices(env_server: str) -> None:

@@ -13,6 +13,9 @@
 //!   `UNKNOWN_TYPE`, `VALIDATION_ERROR` with the fields' `errors`,
 //!   `EXECUTION_ERROR`, `CAPACITY_REACHED`, `SESSION_ERROR`). An error
 //!   leaves the session as it was.
+//! - `GET /ws/batch`: the same messages for up to 64 sessions at once, one
+//!   message each way per batch (for vectorised trainers; [`ws`] has the
+//!   format). Not part of OpenEnv's protocol.
 //! - `POST /reset`, `POST /step`, `GET /state`: the same over HTTP. OpenEnv's
 //!   own HTTP endpoints play each request on a fresh environment; here
 //!   `/reset` opens an episode held under its `episode_id` and `/step` takes
@@ -231,6 +234,7 @@ pub(crate) fn router(state: Arc<EnvServerState>) -> Router {
         .route("/health", get(|| async { axum::Json(json!({"status": "healthy"})) }))
         .route("/mcp", post(mcp::http_mcp))
         .route("/ws", get(ws::ws_upgrade))
+        .route("/ws/batch", get(ws::ws_batch_upgrade))
         .fallback(|| async { (StatusCode::NOT_FOUND, axum::Json(json!({"detail": "Not Found"}))) })
         .layer(axum::middleware::from_fn_with_state(state.clone(), require_token))
         // Handlers read their bodies themselves (`read_body`), under the

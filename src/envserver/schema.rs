@@ -143,6 +143,7 @@ pub(crate) fn openapi() -> Value {
             "/health": {"get": {"summary": "Health check", "responses": ok("Healthy", json!({"type": "object", "properties": {"status": {"type": "string"}}}))}},
             "/mcp": {"post": {"summary": "MCP JSON-RPC (this environment has no tools)", "responses": ok("A JSON-RPC response", json!({"type": "object"}))}},
             "/ws": {"get": {"summary": "WebSocket session: reset, step, state and close messages", "responses": {"101": {"description": "Switching protocols"}}}},
+            "/ws/batch": {"get": {"summary": "WebSocket batch of up to 64 sessions (not OpenEnv's): {\"type\": \"batch\", \"data\": [message or null per session]} answered with each session's answer", "responses": {"101": {"description": "Switching protocols"}}}},
         },
         // The full observation and state schemas are on /schema (JSON
         // Schema 2020-12, with their own $defs).

@@ -1,10 +1,21 @@
-//! The WebSocket endpoint (`GET /ws`): one connection is one session, as
+//! The WebSocket endpoints. `GET /ws`: one connection is one session, as
 //! OpenEnv's server holds it. Messages are checked by [`super::request`],
 //! as the HTTP bodies are; an error is OpenEnv's structured one
 //! (`VALIDATION_ERROR` with each field located in the message) and leaves
 //! the session as it was. A session ends when its client closes it, sends
 //! `close`, or stays idle past the session timeout; a frame too large or
 //! not UTF-8 gets its error and RFC 6455's close code.
+//!
+//! `GET /ws/batch`: one connection holds up to [`MAX_BATCH_SESSIONS`]
+//! sessions, for a vectorised trainer that would otherwise pay one
+//! message each way per environment and step. The client sends
+//! `{"type": "batch", "data": [m0, m1, ...]}`, entry i being the message
+//! `/ws` takes (`reset`, `step` or `state`) for session i, or `null` to
+//! leave session i alone; the answer is `{"type": "batch", "data": [a0,
+//! a1, ...]}`, entry i being what `/ws` answers that message (an error
+//! entry included), or `null`. Session i opens with its first message and
+//! takes a place under `--max-sessions` (past it, that entry is
+//! `CAPACITY_REACHED`); all close with the connection or on `close`.
 
 use super::EnvServerState;
 use super::mcp::mcp_response;
@@ -32,6 +43,14 @@ impl Drop for WsOpen {
 }
 
 pub(super) async fn ws_upgrade(State(state): State<Arc<EnvServerState>>, ws: WebSocketUpgrade) -> Response {
+    upgrade(state, ws, 1)
+}
+
+pub(super) async fn ws_batch_upgrade(State(state): State<Arc<EnvServerState>>, ws: WebSocketUpgrade) -> Response {
+    upgrade(state, ws, MAX_BATCH_SESSIONS)
+}
+
+fn upgrade(state: Arc<EnvServerState>, ws: WebSocketUpgrade, sessions: usize) -> Response {
     let limit = state.config.max_message_bytes;
     // Small read and write buffers: a message is a few KB, and a large
     // buffer is zeroed on every read. Outgoing bytes are capped: the server
@@ -41,13 +60,18 @@ pub(super) async fn ws_upgrade(State(state): State<Arc<EnvServerState>>, ws: Web
         .max_frame_size(limit)
         .read_buffer_size(WS_BUFFER_BYTES)
         .write_buffer_size(WS_BUFFER_BYTES)
-        .max_write_buffer_size(MAX_WS_OUTGOING_BYTES)
-        .on_upgrade(move |socket| ws_session(socket, state))
+        .max_write_buffer_size(WS_BUFFER_BYTES + sessions * MAX_WS_OUTGOING_BYTES_PER_SESSION)
+        .on_upgrade(move |socket| ws_connection(socket, state, sessions > 1))
 }
 
-/// Most bytes a session may have written and not yet sent: the largest
-/// reply with its framing, twice.
-const MAX_WS_OUTGOING_BYTES: usize = WS_BUFFER_BYTES + 2 * (2 * session::MAX_REPLY_BYTES + 4096);
+/// Most bytes one session's answers may have written and not yet sent:
+/// the largest reply with its framing, twice. A batch connection may hold
+/// that for each of its sessions, so memory stays bounded per session.
+const MAX_WS_OUTGOING_BYTES_PER_SESSION: usize = 2 * (2 * session::MAX_REPLY_BYTES + 4096);
+
+/// Most sessions one `/ws/batch` connection holds (a vectorised trainer's
+/// environments; more take another connection).
+pub(crate) const MAX_BATCH_SESSIONS: usize = 64;
 
 /// What a frame the session could not read gets: OpenEnv's structured
 /// error, then the close code RFC 6455 gives the fault (1009: too big,
@@ -66,6 +90,12 @@ fn unreadable(e: &axum::Error, limit: usize) -> Option<(Value, u16)> {
 /// OpenEnv's error message.
 fn ws_error(code: &str, message: impl Into<String>) -> Value {
     json!({"type": "error", "data": {"message": message.into(), "code": code}})
+}
+
+/// What a connection serves.
+enum Sessions {
+    One(Box<Session>),
+    Batch(Batch),
 }
 
 /// What one WebSocket message does to its session.
@@ -105,11 +135,15 @@ fn names(kind: &str) -> Option<Names> {
 
 /// Handle one text message of a WebSocket session.
 fn ws_message(state: &EnvServerState, session: &mut Session, text: &str) -> WsReply {
-    let message: Value = match serde_json::from_str(text) {
-        Ok(m) => m,
-        Err(e) => return WsReply::Send(ws_error("INVALID_JSON", format!("Invalid JSON: {e}"))),
-    };
-    let fields = match request::object(&message, "a JSON object with a type") {
+    match serde_json::from_str(text) {
+        Ok(message) => session_message(state, session, &message),
+        Err(e) => WsReply::Send(ws_error("INVALID_JSON", format!("Invalid JSON: {e}"))),
+    }
+}
+
+/// Handle one message to a session, parsed.
+fn session_message(state: &EnvServerState, session: &mut Session, message: &Value) -> WsReply {
+    let fields = match request::object(message, "a JSON object with a type") {
         Ok(fields) => fields,
         Err(e) => return WsReply::Send(invalid(vec![e])),
     };
@@ -146,6 +180,95 @@ fn ws_message(state: &EnvServerState, session: &mut Session, text: &str) -> WsRe
     }
 }
 
+/// The sessions of a `/ws/batch` connection, opened as their index is
+/// first used, each holding its place under `--max-sessions`.
+#[derive(Default)]
+struct Batch {
+    sessions: Vec<Option<(Session, super::Slot)>>,
+}
+
+impl Batch {
+    /// Handle one text message of a batch connection.
+    fn message(&mut self, state: &Arc<EnvServerState>, text: &str) -> WsReply {
+        let message: Value = match serde_json::from_str(text) {
+            Ok(m) => m,
+            Err(e) => return WsReply::Send(ws_error("INVALID_JSON", format!("Invalid JSON: {e}"))),
+        };
+        let fields = match request::object(&message, "a JSON object with a type") {
+            Ok(fields) => fields,
+            Err(e) => return WsReply::Send(invalid(vec![e])),
+        };
+        let kind = fields.get("type").and_then(Value::as_str).unwrap_or("");
+        let names = match kind {
+            "batch" => Names { required: &["type", "data"], optional: &[] },
+            "close" => Names { required: &["type"], optional: &[] },
+            _ => return WsReply::Send(ws_error("UNKNOWN_TYPE", format!("Unknown message type: {}", clip(kind)))),
+        };
+        if let Err(errors) = names.check(fields) {
+            return WsReply::Send(invalid(errors));
+        }
+        if kind == "close" {
+            return WsReply::Close;
+        }
+        let entries = match fields.get("data") {
+            Some(Value::Array(entries)) if entries.len() <= MAX_BATCH_SESSIONS => entries,
+            _ => {
+                let expected = format!("an array of at most {MAX_BATCH_SESSIONS} messages (or nulls), one per session");
+                return WsReply::Send(invalid(vec![FieldError::new("list_type", "data", expected)]));
+            }
+        };
+        let mut out = String::with_capacity(32 + entries.len() * ANSWER_CAPACITY / 4);
+        out.push_str(r#"{"type":"batch","data":["#);
+        for (i, entry) in entries.iter().enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            match self.entry(state, i, entry) {
+                None => out.push_str("null"),
+                Some(WsReply::Text(text)) => out.push_str(&text),
+                Some(WsReply::Send(value)) => out.push_str(&value.to_string()),
+                Some(WsReply::Close) => unreachable!("a batch entry never closes"),
+            }
+        }
+        out.push_str("]}");
+        WsReply::Text(out)
+    }
+
+    /// Entry `i` of a batch: what `/ws` answers it, or None for `null`.
+    fn entry(&mut self, state: &Arc<EnvServerState>, i: usize, entry: &Value) -> Option<WsReply> {
+        if entry.is_null() {
+            return None;
+        }
+        let kind = entry.get("type").and_then(Value::as_str).unwrap_or("");
+        if !matches!(kind, "reset" | "step" | "state") {
+            let message = format!("Unknown message type in a batch: {} (reset, step or state)", clip(kind));
+            return Some(WsReply::Send(ws_error("UNKNOWN_TYPE", message)));
+        }
+        if self.sessions.len() <= i {
+            self.sessions.resize_with(i + 1, || None);
+        }
+        let place = &mut self.sessions[i];
+        if place.is_none() {
+            match state.acquire() {
+                Ok(slot) => *place = Some((Session::default(), slot)),
+                Err(full) => return Some(WsReply::Send(at_capacity(&full))),
+            }
+        }
+        let (session, _) = place.as_mut().expect("opened above");
+        Some(session_message(state, session, entry))
+    }
+}
+
+/// The error a session refused for capacity gets.
+fn at_capacity(full: &AtCapacity) -> Value {
+    json!({"type": "error", "data": {
+        "message": format!("Server at capacity: {} of {} sessions in use", full.active, full.max),
+        "code": "CAPACITY_REACHED",
+        "active_sessions": full.active,
+        "max_sessions": full.max,
+    }})
+}
+
 fn invalid(errors: Vec<FieldError>) -> Value {
     json!({"type": "error", "data": {"message": "Invalid message", "code": "VALIDATION_ERROR", "errors": errors}})
 }
@@ -159,27 +282,27 @@ async fn stopping(stop: &mut watch::Receiver<bool>) {
     let _ = stop.wait_for(|stopping| *stopping).await;
 }
 
-/// One WebSocket connection: one session, until the client closes it,
-/// sends `close`, or stays idle past the session timeout.
-async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
-    let _slot = match state.acquire() {
-        Ok(slot) => slot,
-        Err(AtCapacity { active, max }) => {
-            let refusal = json!({"type": "error", "data": {
-                "message": format!("Server at capacity: {active} of {max} sessions in use"),
-                "code": "CAPACITY_REACHED",
-                "active_sessions": active,
-                "max_sessions": max,
-            }});
-            let _ = send(&mut socket, &refusal).await;
-            let _ = socket.send(Message::Close(Some(CloseFrame { code: 1013, reason: "at capacity".into() }))).await;
-            return;
+/// One WebSocket connection: one session (or, `batch`, a batch of them),
+/// until the client closes it, sends `close`, or stays idle past the
+/// session timeout.
+async fn ws_connection(mut socket: WebSocket, state: Arc<EnvServerState>, batch: bool) {
+    // A single session takes its place now; a batch's sessions as they open.
+    let (_slot, mut sessions) = if batch {
+        (None, Sessions::Batch(Batch::default()))
+    } else {
+        match state.acquire() {
+            Ok(slot) => (Some(slot), Sessions::One(Box::default())),
+            Err(full) => {
+                let _ = send(&mut socket, &at_capacity(&full)).await;
+                let close = CloseFrame { code: 1013, reason: "at capacity".into() };
+                let _ = socket.send(Message::Close(Some(close))).await;
+                return;
+            }
         }
     };
     state.ws_open.fetch_add(1, Relaxed);
     let _open = WsOpen(state.clone());
     let mut stop = state.stop.subscribe();
-    let mut session = Session::default();
     let timeout = state.config.session_timeout;
     // One idle timer for the session, pushed back on each message: moving a
     // deadline later is an atomic store, where a `timeout` per message would
@@ -223,7 +346,10 @@ async fn ws_session(mut socket: WebSocket, state: Arc<EnvServerState>) {
             Some(Ok(m)) => m,
         };
         let reply = match message {
-            Message::Text(text) => ws_message(&state, &mut session, text.as_str()),
+            Message::Text(text) => match &mut sessions {
+                Sessions::One(session) => ws_message(&state, session, text.as_str()),
+                Sessions::Batch(batch) => batch.message(&state, text.as_str()),
+            },
             Message::Binary(_) => WsReply::Send(ws_error("INVALID_JSON", "binary frames are not read: send JSON text")),
             Message::Close(_) => return,
             Message::Ping(_) | Message::Pong(_) => continue,
@@ -318,6 +444,82 @@ mod tests {
         assert!(!stepped["data"]["observation"]["parse_errors"].as_array().unwrap().is_empty());
         assert_eq!(send_text(&s, &mut session, r#"{"type": "state"}"#)["data"]["step_count"], 1);
         assert_eq!(send_text(&s, &mut session, r#"{"type": "close"}"#), json!("closed"));
+    }
+
+    fn batch_text(state: &Arc<EnvServerState>, batch: &mut Batch, text: &str) -> Value {
+        match batch.message(state, text) {
+            WsReply::Send(v) => v,
+            WsReply::Text(t) => serde_json::from_str(&t).unwrap(),
+            WsReply::Close => json!("closed"),
+        }
+    }
+
+    /// `value` without its episode ids (random per session).
+    fn without_ids(value: &Value) -> Value {
+        match value {
+            Value::Object(fields) => {
+                fields.iter().filter(|(k, _)| *k != "episode_id").map(|(k, v)| (k.clone(), without_ids(v))).collect()
+            }
+            other => other.clone(),
+        }
+    }
+
+    /// Entry i of a batch is what `/ws` answers session i's
+    /// message, whatever the others do (nulls leave a session alone).
+    #[test]
+    fn a_batch_answers_each_session_as_its_own_connection_would() {
+        let state = Arc::new(state());
+        let mut batch = Batch::default();
+        let mut alone = [Session::default(), Session::default(), Session::default()];
+        let reset = |seed: u64, scenario: &str| json!({"type": "reset", "data": {"scenario": scenario, "tier": 2, "seed": seed, "view": "features"}});
+        let step = |maneuver: &str| json!({"type": "step", "data": {"maneuver": maneuver, "acceleration": 0.5}});
+        let rounds = [
+            vec![reset(7, "yield_standoff"), reset(8, "pedestrian_feint"), reset(9, "contested_merge")],
+            vec![step("proceed"), Value::Null, step("yield")],
+            vec![step("stop"), step("proceed"), json!({"type": "state"})],
+            vec![json!({"type": "step", "data": {"maneuver": "fly"}}), step("yield"), step("proceed")],
+        ];
+        for round in rounds {
+            let answer = batch_text(&state, &mut batch, &json!({"type": "batch", "data": round}).to_string());
+            assert_eq!(answer["type"], "batch");
+            for (i, message) in round.iter().enumerate() {
+                let expected = if message.is_null() {
+                    Value::Null
+                } else {
+                    send_text(&state, &mut alone[i], &message.to_string())
+                };
+                assert_eq!(without_ids(&answer["data"][i]), without_ids(&expected), "session {i} of {round:?}");
+            }
+        }
+        // Three sessions hold three places, given back with the batch.
+        assert_eq!(state.active_sessions(), 3);
+        drop(batch);
+        assert_eq!(state.active_sessions(), 0);
+    }
+
+    #[test]
+    fn a_bad_batch_gets_an_error_and_its_sessions_survive_it() {
+        let state = Arc::new(state());
+        let mut batch = Batch::default();
+        let code = |v: &Value| v["data"]["code"].as_str().unwrap_or("").to_string();
+        let opened =
+            batch_text(&state, &mut batch, r#"{"type": "batch", "data": [{"type": "reset", "data": {"seed": 3}}]}"#);
+        assert_eq!(opened["data"][0]["type"], "observation", "{opened}");
+        assert_eq!(code(&batch_text(&state, &mut batch, "[")), "INVALID_JSON");
+        assert_eq!(code(&batch_text(&state, &mut batch, r#"{"type": "step"}"#)), "UNKNOWN_TYPE");
+        assert_eq!(code(&batch_text(&state, &mut batch, r#"{"type": "batch", "data": {}}"#)), "VALIDATION_ERROR");
+        let too_many = json!({"type": "batch", "data": vec![Value::Null; MAX_BATCH_SESSIONS + 1]}).to_string();
+        let refused = batch_text(&state, &mut batch, &too_many);
+        assert_eq!(refused["data"]["errors"][0]["loc"], json!(["data"]), "{refused}");
+        let inner = batch_text(&state, &mut batch, r#"{"type": "batch", "data": [{"type": "close"}, 3]}"#);
+        assert_eq!((code(&inner["data"][0]), code(&inner["data"][1])), ("UNKNOWN_TYPE".into(), "UNKNOWN_TYPE".into()));
+        // Past --max-sessions (4 here), a session's entry is refused alone.
+        let five: Vec<Value> = (0..5).map(|_| json!({"type": "state"})).collect();
+        let answer = batch_text(&state, &mut batch, &json!({"type": "batch", "data": five}).to_string());
+        assert_eq!(answer["data"][0]["data"]["seed"], 3, "{answer}");
+        assert_eq!(code(&answer["data"][4]), "CAPACITY_REACHED", "{answer}");
+        assert_eq!(answer["data"][3]["type"], "state", "{answer}");
+        assert_eq!(batch_text(&state, &mut batch, r#"{"type": "close"}"#), json!("closed"));
     }
 
     #[test]

@@ -68,11 +68,83 @@ def register() -> None:
         gym.register(id=ENV_ID, entry_point="negotiator_gym.env:NegotiatorEnv")
 
 
-def _metadata(base_url: str, headers: dict[str, str]) -> dict[str, Any]:
+def fetch_metadata(base_url: str, headers: dict[str, str]) -> dict[str, Any]:
     request = urllib.request.Request(base_url + "/metadata", headers=headers)
     with urllib.request.urlopen(request, timeout=30) as answer:
         meta: dict[str, Any] = json.load(answer)
     return meta
+
+
+class Endpoint:
+    """The env-server an environment plays on: the one at `base_url`, or
+    one started here (the binary on `PATH` or named by `NEGOTIATOR_BIN`)
+    and stopped by `close()`; with its feature layout and action list from
+    `/metadata`, and the spaces they make."""
+
+    def __init__(self, base_url: str | None, token: str | None) -> None:
+        self._local: LocalServer | None = None
+        if base_url is None:
+            self._local = LocalServer(binary())
+            base_url = self._local.url
+        self.base_url = base_url.rstrip("/")
+        self.headers = bearer_headers(token)
+        meta = fetch_metadata(self.base_url, self.headers)
+        self.feature_names: list[str] = list(meta["feature_names"])
+        self.actions: list[dict[str, Any]] = list(meta["discrete_actions"])
+        self.observation_space = spaces.Box(-FEATURE_BOUND, FEATURE_BOUND, (len(self.feature_names),), np.float32)
+        self.action_space = spaces.Discrete(len(self.actions))
+        # Every step message, encoded once.
+        self.step_messages = [json.dumps({"type": "step", "data": a}) for a in self.actions]
+
+    def connect(self, path: str) -> Session:
+        """A WebSocket connection to `path` (`/ws`, `/ws/batch`)."""
+        return Session("ws" + self.base_url.removeprefix("http") + path, self.headers)
+
+    def close(self) -> None:
+        if self._local is not None:
+            self._local.close()
+            self._local = None
+
+
+def check_cell(scenario: str, tier: int) -> None:
+    """Refuse a scenario or tier the benchmark does not have, naming the choices."""
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {scenario!r}: one of {', '.join(SCENARIOS)}")
+    if tier not in TIERS:
+        raise ValueError(f"unknown tier {tier!r}: 1, 2 or 3")
+
+
+def bearer_headers(token: str | None) -> dict[str, str]:
+    """The headers env-server's `--token-var` asks for (`NEGOTIATOR_TOKEN` by default)."""
+    token = token if token is not None else os.environ.get("NEGOTIATOR_TOKEN")
+    return {"Authorization": f"Bearer {token}"} if token else {}
+
+
+def draw_episode_seed(rng: np.random.Generator) -> int:
+    """The benchmark seed a reset without one plays."""
+    return int(rng.integers(*_DRAWN_SEEDS))
+
+
+def answer_data(answer: dict[str, Any]) -> dict[str, Any]:
+    """An answer's `data`, or env-server's refusal raised."""
+    if answer.get("type") == "error":
+        error = answer.get("data", {})
+        raise EnvServerError(f"{error.get('code')}: {error.get('message')}")
+    data: dict[str, Any] = answer["data"]
+    return data
+
+
+def final_info(data: dict[str, Any], episode_seed: int | None) -> dict[str, Any]:
+    """The last step's `info`: the grades and the hidden disposition."""
+    meta = data.get("metadata") or {}
+    info = {key: meta.get(key) for key in FINAL_INFO}
+    info["seed"] = episode_seed
+    return info
+
+
+def features(data: dict[str, Any]) -> np.ndarray:
+    """An answer's observation as the `Box` holds it."""
+    return np.asarray(data["observation"]["features"], dtype=np.float32)
 
 
 class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
@@ -86,31 +158,19 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         token: str | None = None,
         render_mode: str | None = None,
     ) -> None:
-        if scenario not in SCENARIOS:
-            raise ValueError(f"unknown scenario {scenario!r}: one of {', '.join(SCENARIOS)}")
-        if tier not in TIERS:
-            raise ValueError(f"unknown tier {tier!r}: 1, 2 or 3")
+        check_cell(scenario, tier)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"unknown render_mode {render_mode!r}: 'ansi' or None")
         self.scenario = scenario
         self.tier = tier
         self.render_mode = render_mode
-        self._local: LocalServer | None = None
-        if base_url is None:
-            self._local = LocalServer(binary())
-            base_url = self._local.url
-        self.base_url = base_url.rstrip("/")
-        token = token if token is not None else os.environ.get("NEGOTIATOR_TOKEN")
-        self._headers = {"Authorization": f"Bearer {token}"} if token else {}
-        meta = _metadata(self.base_url, self._headers)
-        self.feature_names: list[str] = list(meta["feature_names"])
-        self.observation_space = spaces.Box(-FEATURE_BOUND, FEATURE_BOUND, (len(self.feature_names),), np.float32)
-        self.actions: list[dict[str, Any]] = list(meta["discrete_actions"])
-        self.action_space = spaces.Discrete(len(self.actions))
-        # Every step message, encoded once.
-        self._step_messages = [json.dumps({"type": "step", "data": a}) for a in self.actions]
-        ws_url = "ws" + self.base_url.removeprefix("http") + "/ws"
-        self._ws: Session | None = Session(ws_url, self._headers)
+        self._endpoint = Endpoint(base_url, token)
+        self.base_url = self._endpoint.base_url
+        self.feature_names = self._endpoint.feature_names
+        self.actions = self._endpoint.actions
+        self.observation_space = self._endpoint.observation_space
+        self.action_space = self._endpoint.action_space
+        self._ws: Session | None = self._endpoint.connect("/ws")
         self._scene = ""
         self._done = True
         self.episode_seed: int | None = None
@@ -126,22 +186,16 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
     def _receive(self) -> dict[str, Any]:
         assert self._ws is not None
         # orjson: a step's answer is read about 7x faster than with json.
-        answer: dict[str, Any] = orjson.loads(self._ws.recv())
-        if answer.get("type") == "error":
-            error = answer.get("data", {})
-            raise EnvServerError(f"{error.get('code')}: {error.get('message')}")
-        data: dict[str, Any] = answer["data"]
-        return data
+        return answer_data(orjson.loads(self._ws.recv()))
 
     def _send(self, kind: str, data: dict[str, Any]) -> dict[str, Any]:
         self._post(kind, data)
         return self._receive()
 
     def _observe(self, answer: dict[str, Any]) -> np.ndarray:
-        observation = answer["observation"]
         if self.render_mode == "ansi":
-            self._scene = observation.get("scene", "")
-        return np.asarray(observation["features"], dtype=np.float32)
+            self._scene = answer["observation"].get("scene", "")
+        return features(answer)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -158,7 +212,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         if seed is not None:
             episode_seed = int(seed)
         else:
-            episode_seed = int(self.np_random.integers(*_DRAWN_SEEDS))
+            episode_seed = draw_episode_seed(self.np_random)
         view = "full" if self.render_mode == "ansi" else "features"
         self._post("reset", {"scenario": self.scenario, "tier": self.tier, "seed": episode_seed, "view": view})
         self.episode_seed = episode_seed
@@ -179,7 +233,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         before reading any, so the server steps the sessions together)."""
         if self._done:
             raise RuntimeError("step() after the episode ended: call reset()")
-        self._post_text(self._step_messages[int(action)])
+        self._post_text(self._endpoint.step_messages[int(action)])
 
     def receive_step(self) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         """The second half of `step`: the answer to the action sent."""
@@ -188,9 +242,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         info: dict[str, Any] = {}
         if done:
             self._done = True
-            meta = answer.get("metadata") or {}
-            info = {key: meta.get(key) for key in FINAL_INFO}
-            info["seed"] = self.episode_seed
+            info = final_info(answer, self.episode_seed)
         reward = float(answer.get("reward") or 0.0)
         return self._observe(answer), reward, done, False, info
 
@@ -205,7 +257,5 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
                 self._ws.close()
             finally:
                 self._ws = None
-        if self._local is not None:
-            self._local.close()
-            self._local = None
+        self._endpoint.close()
         super().close()

@@ -40,7 +40,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=0, help="seeds PPO, the network and the drawn episodes")
     p.add_argument("--out", required=True, type=Path)
     p.add_argument("--base-url", help="an env-server to train on (default: start a local one)")
-    p.add_argument("--envs", type=int, default=8, help="environments stepped together (one session each)")
+    p.add_argument("--envs", type=int, default=8, help="environments stepped together (sessions of one env-server batch connection, at most 64)")
     p.add_argument("--curve-points", type=int, default=20, help="evaluations along the run")
     p.add_argument("--curve-episodes", type=int, default=100, help="held-out episodes per evaluation")
     args = p.parse_args(argv)
@@ -57,7 +57,7 @@ def train(args: argparse.Namespace, base_url: str) -> None:
     from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecNormalize
     from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
-    from negotiator_gym.vec import PipelinedVecEnv
+    from negotiator_gym.vec import BatchVecEnv
 
     # A network this small gains nothing from threads; one keeps the run on
     # its own core (and several runs side by side).
@@ -88,13 +88,7 @@ def train(args: argparse.Namespace, base_url: str) -> None:
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
 
-    def make(rank: int) -> Any:
-        def thunk() -> NegotiatorEnv:
-            return NegotiatorEnv(scenario=args.scenario, tier=args.tier, base_url=base_url)
-
-        return thunk
-
-    timed = Timed(PipelinedVecEnv([make(i) for i in range(args.envs)]))
+    timed = Timed(BatchVecEnv(args.envs, scenario=args.scenario, tier=args.tier, base_url=base_url))
     venv = VecNormalize(timed, norm_obs=True, norm_reward=False)
     venv.seed(2**40 + args.seed * 1000)
     model = PPO(
