@@ -15,7 +15,9 @@
 //! a1, ...]}`, entry i being what `/ws` answers that message (an error
 //! entry included), or `null`. Session i opens with its first message and
 //! takes a place under `--max-sessions` (past it, that entry is
-//! `CAPACITY_REACHED`); all close with the connection or on `close`.
+//! `CAPACITY_REACHED`); all close with the connection or on `close`, and
+//! the idle timeout is the connection's (a message to any session keeps
+//! all of them open).
 
 use super::EnvServerState;
 use super::mcp::mcp_response;
@@ -239,7 +241,10 @@ impl Batch {
         if entry.is_null() {
             return None;
         }
-        let kind = entry.get("type").and_then(Value::as_str).unwrap_or("");
+        let kind = match request::object(entry, "a JSON object with a type") {
+            Ok(fields) => fields.get("type").and_then(Value::as_str).unwrap_or(""),
+            Err(e) => return Some(WsReply::Send(invalid(vec![e]))),
+        };
         if !matches!(kind, "reset" | "step" | "state") {
             let message = format!("Unknown message type in a batch: {} (reset, step or state)", clip(kind));
             return Some(WsReply::Send(ws_error("UNKNOWN_TYPE", message)));
@@ -512,7 +517,10 @@ mod tests {
         let refused = batch_text(&state, &mut batch, &too_many);
         assert_eq!(refused["data"]["errors"][0]["loc"], json!(["data"]), "{refused}");
         let inner = batch_text(&state, &mut batch, r#"{"type": "batch", "data": [{"type": "close"}, 3]}"#);
-        assert_eq!((code(&inner["data"][0]), code(&inner["data"][1])), ("UNKNOWN_TYPE".into(), "UNKNOWN_TYPE".into()));
+        assert_eq!(
+            (code(&inner["data"][0]), code(&inner["data"][1])),
+            ("UNKNOWN_TYPE".into(), "VALIDATION_ERROR".into())
+        );
         // Past --max-sessions (4 here), a session's entry is refused alone.
         let five: Vec<Value> = (0..5).map(|_| json!({"type": "state"})).collect();
         let answer = batch_text(&state, &mut batch, &json!({"type": "batch", "data": five}).to_string());
