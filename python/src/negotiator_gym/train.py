@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from negotiator.server import LocalServer, binary
-from negotiator_gym.env import SCENARIOS, TIERS, NegotiatorEnv
+from negotiator_gym.env import SCENARIOS, TIERS
 from negotiator_gym.evaluate import MODEL_FILE, NORMALIZE_FILE, play, rates
 
 CURVE_SEED = 10_000
