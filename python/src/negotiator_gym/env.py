@@ -125,6 +125,11 @@ def draw_episode_seed(rng: np.random.Generator) -> int:
     return int(rng.integers(*_DRAWN_SEEDS))
 
 
+def reset_message(scenario: str, tier: int, seed: int, view: str) -> str:
+    """The reset message that plays benchmark seed `seed` of the cell."""
+    return json.dumps({"type": "reset", "data": {"scenario": scenario, "tier": tier, "seed": seed, "view": view}})
+
+
 def answer_data(answer: dict[str, Any]) -> dict[str, Any]:
     """An answer's `data`, or env-server's refusal raised."""
     if answer.get("type") == "error":
@@ -175,9 +180,6 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         self._done = True
         self.episode_seed: int | None = None
 
-    def _post(self, kind: str, data: dict[str, Any]) -> None:
-        self._post_text(json.dumps({"type": kind, "data": data}))
-
     def _post_text(self, message: str) -> None:
         if self._ws is None:
             raise RuntimeError("the environment is closed")
@@ -187,10 +189,6 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         assert self._ws is not None
         # orjson: a step's answer is read about 7x faster than with json.
         return answer_data(orjson.loads(self._ws.recv()))
-
-    def _send(self, kind: str, data: dict[str, Any]) -> dict[str, Any]:
-        self._post(kind, data)
-        return self._receive()
 
     def _observe(self, answer: dict[str, Any]) -> np.ndarray:
         if self.render_mode == "ansi":
@@ -214,7 +212,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         else:
             episode_seed = draw_episode_seed(self.np_random)
         view = "full" if self.render_mode == "ansi" else "features"
-        self._post("reset", {"scenario": self.scenario, "tier": self.tier, "seed": episode_seed, "view": view})
+        self._post_text(reset_message(self.scenario, self.tier, episode_seed, view))
         self.episode_seed = episode_seed
 
     def receive_reset(self) -> tuple[np.ndarray, dict[str, Any]]:

@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from typing import Any
 
@@ -35,6 +34,7 @@ from negotiator_gym.env import (
     draw_episode_seed,
     features,
     final_info,
+    reset_message,
 )
 
 # Most sessions one `/ws/batch` connection holds (env-server's bound).
@@ -128,8 +128,7 @@ class BatchVecEnv(VecEnv):
                 rng = self._rngs[i] = seeding.np_random()[0]
             episode_seed = draw_episode_seed(rng)
         self.episode_seeds[i] = episode_seed
-        data = {"scenario": self.scenario, "tier": self.tier, "seed": episode_seed, "view": "features"}
-        return json.dumps({"type": "reset", "data": data})
+        return reset_message(self.scenario, self.tier, episode_seed, "features")
 
     def _exchange(self, entries: list[str | None]) -> list[dict[str, Any] | None]:
         if self._ws is None:
@@ -192,19 +191,12 @@ class BatchVecEnv(VecEnv):
                 self._ws = None
         self._endpoint.close()
 
-    def _indices(self, indices: VecEnvIndices) -> list[int]:
-        if indices is None:
-            return list(range(self.num_envs))
-        if isinstance(indices, int):
-            return [indices]
-        return list(indices)
-
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """The environments share every attribute but their episode seed."""
         if attr_name == "episode_seed":
-            return [self.episode_seeds[i] for i in self._indices(indices)]
+            return [self.episode_seeds[i] for i in self._get_indices(indices)]
         value = getattr(self, attr_name)
-        return [value for _ in self._indices(indices)]
+        return [value for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         raise AttributeError(f"BatchVecEnv's environments share their attributes: cannot set {attr_name!r} on some")
@@ -213,4 +205,4 @@ class BatchVecEnv(VecEnv):
         raise AttributeError(f"BatchVecEnv holds no environment objects to call {method_name!r} on")
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
-        return [False for _ in self._indices(indices)]
+        return [False for _ in self._get_indices(indices)]
