@@ -475,7 +475,7 @@ impl Episode {
         let taken = self.world.turns_taken();
         if taken > self.tracker.turns_taken {
             let approach = EgoApproach::new(self.world.ego_to_conflict(&self.ego), &self.ego);
-            if !approach.can_stop_comfortably() {
+            if !approach.can_stop() {
                 self.tracker.unstoppable_turns_taken += taken - self.tracker.turns_taken;
             }
             self.tracker.turns_taken = taken;

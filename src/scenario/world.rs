@@ -74,7 +74,7 @@ pub trait World {
     /// stepping in, a crosser taking the ego's invitation, a stopped yielder
     /// pulling away, a lane car passing an ego it covered). The episode
     /// checks, at the step the count grows, that the ego could still stop
-    /// comfortably before the conflict (`EgoApproach::can_stop_comfortably`).
+    /// before the conflict (`EgoApproach::can_stop`).
     fn turns_taken(&self) -> u32 {
         0
     }
@@ -238,11 +238,24 @@ impl EgoApproach {
 
     /// Whether the ego could still stop short of the conflict as a driver
     /// does when someone steps out: after a reaction time, braking firmly
-    /// but not in an emergency ([`REACTION_S`], [`FIRM_BRAKE`]). A road
-    /// user that waits for the ego and starts into its path while this is
-    /// false is what `validate`'s "road users accept gaps" line counts.
+    /// but not in an emergency ([`REACTION_S`], [`FIRM_BRAKE`]), or it has
+    /// already stopped there.
     pub fn can_stop_comfortably(&self) -> bool {
-        self.to_conflict > 0.0 && self.v * REACTION_S + self.v * self.v / (2.0 * FIRM_BRAKE) < self.to_conflict
+        // A car at rest at the very edge of the conflict has stopped.
+        let at_rest = self.v < 0.05 && self.to_conflict > -0.05;
+        at_rest
+            || (self.to_conflict > 0.0 && self.v * REACTION_S + self.v * self.v / (2.0 * FIRM_BRAKE) < self.to_conflict)
+    }
+
+    /// Whether the ego could still stop short of the conflict: it can stop
+    /// comfortably ([`Self::can_stop_comfortably`]), or it is already
+    /// braking and stops short at its current deceleration (a car visibly
+    /// stopping has no reaction time left to spend). A road user that waits
+    /// for the ego and starts into its path while this is false is what
+    /// `validate`'s "road users accept gaps" line counts.
+    pub fn can_stop(&self) -> bool {
+        let stopping = self.a < -0.5 && self.to_conflict > 0.0 && self.v * self.v / (-2.0 * self.a) < self.to_conflict;
+        self.can_stop_comfortably() || stopping
     }
 }
 

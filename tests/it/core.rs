@@ -67,8 +67,9 @@ fn golden_vectors_pin_trajectories() {
     ];
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.1656, 0.0000) v 2.2500 reward 0.991777 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (16.6149, 0.0000) v 3.5000 reward -0.179608 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T1, 4, &wait), @"feinter timeout turns 22 t 11.0 ego (-18.7276, 0.0000) v 0.0000 other (0.0000, 2.2044) v 0.5883 reward -0.143906 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 18 t 9.0 ego (-19.8027, 0.0000) v 0.5000 other (0.0000, 6.8806) v 0.0000 reward -0.152324 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 21 t 10.5 ego (-19.5957, 0.0000) v 0.5000 other (0.0000, 6.5888) v 0.0000 reward -0.149972 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (34.7529, 0.0000) v 6.4000 reward -0.279279 dc 0.000");
     let ease =
@@ -175,7 +176,7 @@ fn tiers_bite_check_catches_a_toothless_bluff() {
 fn solvable_check_catches_an_impossible_budget() {
     let mut set = ScenarioSet::default();
     let text =
-        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [20, 20, 18]", "turn_budget = 4");
+        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [22, 20, 21]", "turn_budget = 4");
     set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
     assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
 }
@@ -510,16 +511,16 @@ fn assert_blind_search_catches(kind: ScenarioKind, builtin: &str, edits: &[(&str
     assert!(!planted.pass, "{}", planted.figure);
 }
 
-/// A waiting pedestrian with endless patience (and a budget long enough to
-/// wait) can be outwaited, and the search finds it.
+/// A waiting pedestrian that never takes a gap (and a budget long enough
+/// to wait) can be outwaited, and the search finds it.
 #[test]
 fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
     assert_blind_search_catches(
         ScenarioKind::PedestrianFeint,
         include_str!("../../scenarios/pedestrian_feint.toml"),
         &[
-            ("turn_budget = [20, 20, 18]", "turn_budget = 40"),
-            ("patience_s = [0.2, 0.6]           # cumulative", "patience_s = [19.0, 20.0]           # cumulative"),
+            ("turn_budget = [22, 20, 21]", "turn_budget = 40"),
+            ("patience_s = [0.2, 0.4]           # ...", "patience_s = [19.0, 20.0]           # ..."),
         ],
     );
 }
@@ -872,7 +873,7 @@ fn the_noisy_tier_is_noisy_from_its_first_reading() {
 
 /// The realism line catches a road user that counts hang-back cumulatively
 /// and then starts in front of an ego that can no longer stop comfortably:
-/// the crosswalk's feinter as built today is one (an open line of
+/// the crosswalk's tier-2 feinter as built today is one (an open line of
 /// `validate`). Every flagged episode is one in which a waiting road user
 /// did take its turn, and the check fails on it.
 #[test]
@@ -881,18 +882,18 @@ fn the_realism_line_catches_a_cumulative_feinter_stepping_into_a_car_that_cannot
     let set = ScenarioSet::default();
     let mut flagged = Vec::new();
     for policy in PolicyKind::ALL {
-        let cell = Cell { scenario: ScenarioKind::PedestrianFeint, tier: Tier::T1, policy };
+        let cell = Cell { scenario: ScenarioKind::PedestrianFeint, tier: Tier::T2, policy };
         let n = run_cell(&set, cell, 200, 0)
             .iter()
             .filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0)
-            .inspect(|r| assert_eq!(r.disposition.name(), "feinter", "only a feinter waits for the ego on tier 1"))
+            .inspect(|r| assert_eq!(r.disposition.name(), "feinter", "only a feinter waits for the ego on tier 2"))
             .count();
         flagged.push((cell, n));
     }
     assert!(flagged.iter().any(|(_, n)| *n > 0), "{flagged:?}");
     let check = validate::check_gap_acceptance(&flagged, &[]);
     assert!(!check.pass, "{}", check.figure);
-    assert!(check.figure.contains("pedestrian_feint/t1"), "{}", check.figure);
+    assert!(check.figure.contains("pedestrian_feint/t2"), "{}", check.figure);
     let clean: Vec<_> = flagged.iter().map(|(c, _)| (*c, 0)).collect();
     assert!(validate::check_gap_acceptance(&clean, &[]).pass);
 }
@@ -962,6 +963,50 @@ fn the_merge_does_not_punish_caution_on_any_tier() {
     let check = validate::check_caution(&run_grid(&set, &spec, &|_, _| {}));
     assert!(check.pass, "{}", check.figure);
     assert!(check.figure.contains("0 of 6 cells below a bar"), "{}", check.figure);
+}
+
+/// On the crosswalk's tiers 1 and 3, where the pedestrian accepts gaps as
+/// people do, a driver who eases off while unsure still finishes: the
+/// cautious readers hold the bar on seeds other than `validate`'s. (Before,
+/// a feinter counted every moment of easing off from the start, and stepped
+/// out in front of them on every feinter episode.)
+#[test]
+fn the_crosswalk_does_not_punish_caution_where_pedestrians_accept_gaps() {
+    let set = ScenarioSet::default();
+    let spec = GridSpec {
+        scenarios: vec![ScenarioKind::PedestrianFeint],
+        tiers: vec![Tier::T1, Tier::T3],
+        policies: PolicyKind::CAUTIOUS_READERS.to_vec(),
+        episodes: 200,
+        seed_base: 5000,
+    };
+    let check = validate::check_caution(&run_grid(&set, &spec, &|_, _| {}));
+    assert!(check.pass, "{}", check.figure);
+    assert!(check.figure.contains("0 of 4 cells below a bar"), "{}", check.figure);
+}
+
+/// A pedestrian that accepts gaps never steps in front of a car that could
+/// no longer stop: over every built-in policy on the crosswalk's tiers 1 and
+/// 3, on seeds other than `validate`'s, the realism line reads 0, and a
+/// planted count shows in its figure.
+#[test]
+fn a_gap_accepting_pedestrian_never_steps_into_a_car_that_cannot_stop() {
+    use negotiator::baselines::{Cell, run_cell};
+    let set = ScenarioSet::default();
+    let mut counted = Vec::new();
+    for tier in [Tier::T1, Tier::T3] {
+        for policy in PolicyKind::ALL {
+            let cell = Cell { scenario: ScenarioKind::PedestrianFeint, tier, policy };
+            let runs = run_cell(&set, cell, 200, 3000);
+            counted.push((cell, runs.iter().filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0).count()));
+        }
+    }
+    let check = validate::check_gap_acceptance(&counted, &[]);
+    assert!(check.pass, "{}", check.figure);
+    let mut planted = counted.clone();
+    planted[0].1 = 3;
+    let figure = validate::check_gap_acceptance(&planted, &[]).figure;
+    assert!(figure.contains("pedestrian_feint 3"), "{figure}");
 }
 
 /// The learned adversary's line passes on the built-in intersection's tier

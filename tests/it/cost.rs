@@ -315,9 +315,9 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | yield_standoff | 1 | 3 | 18.67 | 24 | 68626 | 90.6% | 494 |
     | yield_standoff | 2 | 3 | 15.67 | 24 | 49973 | 89.1% | 407 |
     | yield_standoff | 3 | 3 | 14.00 | 24 | 39458 | 87.6% | 356 |
-    | pedestrian_feint | 1 | 3 | 13.00 | 20 | 31098 | 86.8% | 337 |
+    | pedestrian_feint | 1 | 3 | 13.00 | 22 | 31094 | 86.8% | 336 |
     | pedestrian_feint | 2 | 3 | 15.00 | 20 | 40385 | 88.5% | 396 |
-    | pedestrian_feint | 3 | 3 | 13.00 | 18 | 31091 | 86.8% | 337 |
+    | pedestrian_feint | 3 | 3 | 13.00 | 21 | 31077 | 86.8% | 333 |
     | contested_merge | 1 | 3 | 17.33 | 25 | 58775 | 90.2% | 457 |
     | contested_merge | 2 | 3 | 23.33 | 25 | 108997 | 92.1% | 631 |
     | contested_merge | 3 | 3 | 19.33 | 25 | 70241 | 90.9% | 516 |

@@ -86,7 +86,9 @@ pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Move {
         return Move::not_yet(give_way(v, d, lat, vel));
     }
     let eta = if v > 0.5 { d / v } else { f64::INFINITY };
-    if standing && eta <= COMMIT_ETA_S {
+    // It walked up and stopped back from the edge: it waits for the ego.
+    let stopped_to_wait = standing && p.past.iter().any(|s| s.velocity_mps > 0.3);
+    if stopped_to_wait || (standing && eta <= COMMIT_ETA_S) {
         return Move::go(go());
     }
     if !can_wait_a_turn(v, d) {
