@@ -327,6 +327,16 @@ impl Judge {
         Judge::Gap { critical_gap, confirm, open_for: 0.0 }
     }
 
+    /// One step of `dt` in which the ego did (or did not) hang back: a gap
+    /// counts only while it stays open, patience in all.
+    fn watch(&mut self, hanging_back: bool, dt: f64) {
+        match self {
+            Judge::Gap { open_for, .. } => *open_for = if hanging_back { *open_for + dt } else { 0.0 },
+            Judge::Patience(patience) if hanging_back => patience.hang_back(dt),
+            Judge::Patience(_) => {}
+        }
+    }
+
     /// Whether a feinter that has looked takes its turn now.
     fn takes_turn(&self) -> bool {
         match self {
@@ -510,17 +520,11 @@ impl World for PedestrianWorld {
         // The pedestrian watches the car from the start: on tiers 1 and 3
         // whether it leaves a gap now, on tier 2 how long in all it has hung
         // back (its motion did not say it is going first).
-        let hanging_back = match &mut self.judge {
-            Judge::Gap { critical_gap, open_for, .. } => {
-                let open = Self::gap_open(ego, self.params.episode.speed_limit_mps, *critical_gap);
-                *open_for = if open { *open_for + dt } else { 0.0 };
-                open
-            }
+        let hanging_back = match self.judge {
+            Judge::Gap { critical_gap, .. } => Self::gap_open(ego, self.params.episode.speed_limit_mps, critical_gap),
             Judge::Patience(_) => ego.s < -X_HALF && !self.ego_going(ego),
         };
-        if let (Judge::Patience(patience), true) = (&mut self.judge, hanging_back) {
-            patience.hang_back(dt);
-        }
+        self.judge.watch(hanging_back, dt);
         let target = match self.phase {
             Phase::ToKerb => {
                 let left = kerb_stop - self.lat;
