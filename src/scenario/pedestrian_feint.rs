@@ -9,8 +9,8 @@
 //! walking speed (tiers 1 and 3), the same wait at the kerb (tier 2). Every
 //! reaction is a function of the ego's kinematic state only (`EgoApproach`).
 //!
-//! How a waiting pedestrian judges the car (tiers 1 and 3, `Judge::Gap`):
-//! as people at a kerb do, by the gap in front of it now. The car leaves a
+//! How a waiting pedestrian judges the car (every tier, `Judge`): as
+//! people at a kerb do, by the gap in front of it now. The car leaves a
 //! gap when it could still stop short of the line (comfortably, or because
 //! it is already braking to stop there: `EgoApproach::can_stop`) and it is
 //! crawling, braking to stop short, or due later than the pedestrian's
@@ -18,23 +18,28 @@
 //! `look_s` takes a gap that has stayed open `patience_s` without a break;
 //! hang-back earlier never counts once the car comes on, and it never steps
 //! in front of a car that could no longer stop. The critical gaps (tier 1:
-//! 1.8-2.2 s, tier 3: 2.5-3.0 s, drawn per seed) are shorter than the
-//! accepted gaps published for crossing in front of traffic that does not
-//! yield (3 s at the least in a single stream, DiPietro and King, 1970;
-//! 85th percentiles of 5.3-9.4 s across a road, Brewer et al., 2006): this
-//! pedestrian means to let the car pass and takes a car well below the
-//! flow's pace for one giving way. With longer ones a blind driver that
-//! slows early and then keeps coming wins tier 1 (docs/validate.md). Tier 2
-//! keeps the older judgement (`Judge::Patience`): the feinter counts the
-//! car's hang-back in all, and that cell stays below the caution line.
+//! 1.8-2.2 s, tier 2: 2.3-2.6 s, tier 3: 2.5-3.0 s, drawn per seed) are
+//! shorter than the accepted gaps published for crossing in front of
+//! traffic that does not yield (3 s at the least in a single stream,
+//! DiPietro and King, 1970; 85th percentiles of 5.3-9.4 s across a road,
+//! Brewer et al., 2006): this pedestrian means to let the car pass and
+//! takes a car well below the flow's pace for one giving way. With longer
+//! ones a blind driver that slows early and then keeps coming wins tiers 1
+//! and 2 (docs/validate.md).
 //!
-//! Tiers (all timings drawn per seed and tied to the ego's own full-throttle
-//! arrival at the crossing line, `t_race`):
+//! Tiers (all timings drawn per seed; on tiers 1 and 3 tied to the ego's
+//! own full-throttle arrival at the crossing line, `t_race`):
 //! - tier 1: the pedestrian walks toward the kerb at 0.9-1.1 m/s and reaches
 //!   it `tier1.kerb_lead_s` before `t_race`; the crosser walks on, the
 //!   feinter decelerates and stops back from the edge (the tell).
-//! - tier 2: both wait at the kerb; the crosser steps out late and briskly,
-//!   `tier2.step_lead_s` before `t_race` (less reaction time).
+//! - tier 2 (delayed step-out): both wait at the kerb; the crosser, not
+//!   watching the car, steps out late on its own time (`tier2.step_at_s`,
+//!   2.0-2.3 s after the start, whatever the car does) and walks across at
+//!   0.9-1.1 m/s. Nothing tells the two apart before then: the tell is that
+//!   nobody stepped out (the expert reads it at 2.5 s). The feinter decides
+//!   no earlier than a crosser would step out, and looks `tier2.look_s`
+//!   (0.5-0.7 s) more before it takes a gap, so that a driver who slowed
+//!   while unsure and picks up pace at the tell leaves it none.
 //! - tier 3 (pause-then-dart): both walk toward the kerb and both stop. The
 //!   feinter stops back from the edge, as on tier 1 (the tell, early); the
 //!   crosser walks on to the kerb's edge (`tier3.crosser_stop_m`) and
@@ -50,32 +55,35 @@
 //!
 //! Why each blind play loses (one that never looks at the pedestrian):
 //! - racing: the crosser is in the ego's path when a full-throttle ego
-//!   arrives under every geometry drawn (tiers 1-2: its timing is tied to
-//!   `t_race`; tier 3: its dart is triggered by the approach itself).
+//!   arrives under every geometry drawn (tier 1: its timing is tied to
+//!   `t_race`; tier 2: it steps out 1.5-2.0 s before a full-throttle
+//!   arrival and walks slowly; tier 3: its dart is triggered by the
+//!   approach itself).
 //! - slowing early and coming on late enough to let a crosser clear: a
-//!   tier-1 crosser walks slowly enough that a car due within the feinter's
-//!   critical gap once it has looked arrives while a crosser is still in its
-//!   path, and a car due later leaves the feinter a gap.
+//!   crosser (tiers 1 and 2) walks slowly enough that a car due within the
+//!   feinter's critical gap once it has looked arrives while a crosser is
+//!   still in its path, and a car due later leaves the feinter a gap.
 //! - hanging back (a slow approach, a stop, braking to creep through): the
 //!   car leaves a gap, so the feinter steps in and crosses hesitantly
-//!   (0.5-0.7 m/s), and the car waits for all of it or hits it; on tier 3
+//!   (0.5-0.6 m/s), and the car waits for all of it or hits it; on tier 3
 //!   it also invites a crosser at the edge first.
 //! - outwaiting both: the feinter's hesitant passage ends later than the
 //!   turn budget allows; the expert, who reads the tell and times its
 //!   arrival behind a crosser, finishes within it with slack.
 //!
-//! The turn budgets (22, 20, 21) leave a driver who gives way to a crosser
+//! The turn budgets (22, 22, 21) leave a driver who gives way to a crosser
 //! one decision late, or who eased off while unsure (`expert_cautious`,
 //! `expert_hedge`), time to finish; a longer one lets outwaiting fit. A
 //! reader can go at the tell at once: the feinter stands at the kerb at
-//! least `look_s` (0.5-1.0 s on tiers 1 and 3) before it takes a gap, and a
-//! car that picks up pace toward it leaves none.
+//! least `look_s` (0.5-1.0 s on tiers 1 and 3, 0.5-0.7 s after a crosser's
+//! step-out time on tier 2) before it takes a gap, and a car that picks up
+//! pace toward it leaves none.
 //!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
 //! lateral from the near kerb: `lat = y + 1.75`.
 
-use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, World, car_box, crossing_ttc};
+use super::world::{Contact, EgoApproach, History, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
 use super::{Sample, ScenarioKind, Scene};
@@ -132,13 +140,8 @@ pub(crate) const KERB_FRAME: super::LateralFrame = super::LateralFrame {
 };
 /// Pedestrians stop and step out this briskly (m/s^2).
 const PED_ACCEL: f64 = 6.0;
-/// A car keeping at least this fraction of the speed limit (and not
-/// braking) is going, to a waiting pedestrian.
-const GOING_PACE: f64 = 0.85;
-/// A car slower than this (m/s) is not "going" to a waiting pedestrian.
-const GOING_MIN_SPEED: f64 = 3.0;
-/// A car braking harder than this (m/s^2) is hanging back.
-const GOING_MIN_ACCEL: f64 = -0.6;
+/// A car slower than this (m/s) is crawling: to a waiting pedestrian, a gap.
+const CRAWL_MPS: f64 = 3.0;
 /// A darting crosser reacts to a car at most this slow (m/s) too.
 const DART_MIN_SPEED: f64 = 1.0;
 
@@ -196,20 +199,20 @@ pub struct PedTier1 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedTier2 {
-    /// Both wait at the kerb; the crosser steps out this long (s) before a
-    /// full-throttle ego would reach the crossing line.
-    pub step_lead_s: Range,
+    /// Both wait at the kerb; the crosser steps out this long (s) after the
+    /// start, whatever the car does (it is not watching the car).
+    pub step_at_s: Range,
     pub step_out_speed_mps: Range,
+    /// A waiting pedestrian's critical gap (s), drawn per seed: a car due
+    /// later than this at its current motion leaves it a gap to take.
+    pub critical_gap_s: Range,
     /// A feinter stands at the kerb at least this long (s), from the moment
-    /// it decides, before it steps in ...
+    /// it decides (when a crosser would step out), before it steps in ...
     pub look_s: Range,
     /// ... and then walks across hesitantly at this pace (m/s).
     pub give_up_speed_mps: Range,
-    /// A waiting feinter keeps waiting while the car, not braking and
-    /// faster than a crawl, is due at the crossing line within this (s) ...
-    pub waits_while_eta_s: f64,
-    /// ... and takes its turn once the car has hung back this long in all
-    /// (s, counted from the start).
+    /// A gap must stay open this long (s, without a break) before a
+    /// waiting feinter takes it.
     pub patience_s: Range,
 }
 
@@ -282,10 +285,10 @@ impl super::ScenarioParams for PedestrianParams {
             c.range_within(&format!("{tier}.give_up_speed_mps"), give_up, 0.3, 3.0)?;
         }
         c.range_within("tier1.critical_gap_s", self.tier1.critical_gap_s, 0.5, 10.0)?;
+        c.range_within("tier2.critical_gap_s", self.tier2.critical_gap_s, 0.5, 10.0)?;
         c.range_within("tier3.critical_gap_s", self.tier3.critical_gap_s, 0.5, 10.0)?;
-        c.within("tier2.waits_while_eta_s", self.tier2.waits_while_eta_s, 0.5, 10.0)?;
         c.range_within("tier1.patience_s", self.tier1.patience_s, 0.0, 20.0)?;
-        c.range_within("tier2.step_lead_s", self.tier2.step_lead_s, 0.0, 10.0)?;
+        c.range_within("tier2.step_at_s", self.tier2.step_at_s, 0.0, 20.0)?;
         c.range_within("tier2.step_out_speed_mps", self.tier2.step_out_speed_mps, 0.3, 4.0)?;
         c.range_within("tier2.patience_s", self.tier2.patience_s, 0.0, 20.0)?;
         c.range_within("tier3.kerb_lead_s", self.tier3.kerb_lead_s, 0.0, 10.0)?;
@@ -310,39 +313,31 @@ enum Phase {
     Cross { speed: f64, accel: f64 },
 }
 
-/// How a waiting pedestrian judges the ego's motion.
+/// How a waiting pedestrian judges the ego's motion: as people at a kerb
+/// do, by the gap in front of it now. It takes a gap that has stayed open
+/// for `confirm` without a break (`PedestrianWorld::gap_open`), and never
+/// one the ego could not stop for.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Judge {
-    /// Tiers 1 and 3: it takes a gap that has stayed open for `confirm`
-    /// without a break (`PedestrianWorld::gap_open`), and never one the ego
-    /// could not stop for.
-    Gap { critical_gap: f64, confirm: f64, open_for: f64 },
-    /// Tier 2: it takes its turn once the ego has hung back for its
-    /// patience in all, counted from the start.
-    Patience(Patience),
+struct Judge {
+    critical_gap: f64,
+    confirm: f64,
+    open_for: f64,
 }
 
 impl Judge {
-    fn gap(critical_gap: f64, confirm: f64) -> Judge {
-        Judge::Gap { critical_gap, confirm, open_for: 0.0 }
+    fn new(critical_gap: f64, confirm: f64) -> Judge {
+        Judge { critical_gap, confirm, open_for: 0.0 }
     }
 
-    /// One step of `dt` in which the ego did (or did not) hang back: a gap
-    /// counts only while it stays open, patience in all.
-    fn watch(&mut self, hanging_back: bool, dt: f64) {
-        match self {
-            Judge::Gap { open_for, .. } => *open_for = if hanging_back { *open_for + dt } else { 0.0 },
-            Judge::Patience(patience) if hanging_back => patience.hang_back(dt),
-            Judge::Patience(_) => {}
-        }
+    /// One step of `dt` in which the gap was (or was not) open: it counts
+    /// only while it stays open.
+    fn watch(&mut self, open: bool, dt: f64) {
+        self.open_for = if open { self.open_for + dt } else { 0.0 };
     }
 
     /// Whether a feinter that has looked takes its turn now.
     fn takes_turn(&self) -> bool {
-        match self {
-            Judge::Gap { confirm, open_for, .. } => *open_for + 1e-9 >= *confirm,
-            Judge::Patience(patience) => patience.run_out(),
-        }
+        self.open_for + 1e-9 >= self.confirm
     }
 }
 
@@ -401,7 +396,7 @@ impl PedestrianWorld {
                 0.0,
             ),
             Tier::T2 => (
-                params.tier2.step_lead_s.sample(geometry),
+                params.tier2.step_at_s.sample(geometry),
                 params.tier2.patience_s.sample(geometry),
                 params.tier2.step_out_speed_mps.sample(geometry),
                 0.0,
@@ -418,13 +413,16 @@ impl PedestrianWorld {
             ),
         };
         // Drawn last, and only where a waiting pedestrian judges gaps.
-        let judge = match tier {
-            Tier::T1 => Judge::gap(params.tier1.critical_gap_s.sample(geometry), patience),
-            Tier::T2 => Judge::Patience(Patience::new(patience)),
-            Tier::T3 => Judge::gap(params.tier3.critical_gap_s.sample(geometry), patience),
+        let critical_gap = match tier {
+            Tier::T1 => params.tier1.critical_gap_s,
+            Tier::T2 => params.tier2.critical_gap_s,
+            Tier::T3 => params.tier3.critical_gap_s,
         };
+        let judge = Judge::new(critical_gap.sample(geometry), patience);
         let t_race = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
-        let decide_at = (t_race - lead).max(0.5);
+        // Tier 2's crosser keeps its own time; elsewhere the pedestrian
+        // reaches the kerb `lead` before the ego's full-throttle arrival.
+        let decide_at = if tier == Tier::T2 { lead } else { (t_race - lead).max(0.5) };
         let (lat, vel, phase) = match tier {
             // Already walking: at the kerb stop at `decide_at`.
             Tier::T1 | Tier::T3 => (b.kerb_stop_m - walk * decide_at, walk, Phase::ToKerb),
@@ -467,25 +465,13 @@ impl PedestrianWorld {
         self.vel = v_next;
     }
 
-    /// Whether the ego's motion tells a waiting pedestrian that it is going
-    /// first: not braking, and either keeping a through pace or, faster than
-    /// a crawl, due soon.
-    fn ego_going(&self, ego: &Body) -> bool {
-        let v_max = self.params.episode.speed_limit_mps;
-        let app = EgoApproach::new(-X_HALF - ego.s, ego);
-        app.to_conflict > 0.0
-            && ego.a > GOING_MIN_ACCEL
-            && (ego.v >= GOING_PACE * v_max
-                || (ego.v >= GOING_MIN_SPEED && app.eta(v_max) <= self.params.tier2.waits_while_eta_s))
-    }
-
     /// Whether the ego leaves a waiting pedestrian a gap it would take now:
     /// it could still stop short of the line (`EgoApproach::can_stop`), and
     /// it is crawling, braking to stop short (never arriving at its current
     /// motion), or due later than the pedestrian's critical gap.
     fn gap_open(ego: &Body, v_max: f64, critical_gap: f64) -> bool {
         let app = EgoApproach::new(-X_HALF - ego.s, ego);
-        app.can_stop() && (ego.v < GOING_MIN_SPEED || app.eta(v_max) > critical_gap)
+        app.can_stop() && (ego.v < CRAWL_MPS || app.eta(v_max) > critical_gap)
     }
 
     /// Whether the ego's motion shows it will reach the line within the
@@ -517,13 +503,9 @@ impl World for PedestrianWorld {
         };
         let feinter_stop = self.params.pedestrian.kerb_stop_m;
         let mut accel = PED_ACCEL;
-        // The pedestrian watches the car from the start: on tiers 1 and 3
-        // whether it leaves a gap now, on tier 2 how long in all it has hung
-        // back (its motion did not say it is going first).
-        let hanging_back = match self.judge {
-            Judge::Gap { critical_gap, .. } => Self::gap_open(ego, self.params.episode.speed_limit_mps, critical_gap),
-            Judge::Patience(_) => ego.s < -X_HALF && !self.ego_going(ego),
-        };
+        // The pedestrian watches the car from the start: whether it leaves a
+        // gap now.
+        let hanging_back = Self::gap_open(ego, self.params.episode.speed_limit_mps, self.judge.critical_gap);
         self.judge.watch(hanging_back, dt);
         let target = match self.phase {
             Phase::ToKerb => {

@@ -69,6 +69,7 @@ fn golden_vectors_pin_trajectories() {
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (16.6149, 0.0000) v 3.5000 reward -0.179608 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T1, 4, &wait), @"feinter timeout turns 22 t 11.0 ego (-18.7276, 0.0000) v 0.0000 other (0.0000, 2.2044) v 0.5883 reward -0.143906 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 6, &wait), @"feinter timeout turns 22 t 11.0 ego (-19.0937, 0.0000) v 0.0000 other (0.0000, 2.3682) v 0.5787 reward -0.147477 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 21 t 10.5 ego (-19.5957, 0.0000) v 0.5000 other (0.0000, 6.5888) v 0.0000 reward -0.149972 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (34.7529, 0.0000) v 6.4000 reward -0.279279 dc 0.000");
@@ -176,7 +177,7 @@ fn tiers_bite_check_catches_a_toothless_bluff() {
 fn solvable_check_catches_an_impossible_budget() {
     let mut set = ScenarioSet::default();
     let text =
-        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [22, 20, 21]", "turn_budget = 4");
+        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [22, 22, 21]", "turn_budget = 4");
     set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
     assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
 }
@@ -519,7 +520,7 @@ fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
         ScenarioKind::PedestrianFeint,
         include_str!("../../scenarios/pedestrian_feint.toml"),
         &[
-            ("turn_budget = [22, 20, 21]", "turn_budget = 40"),
+            ("turn_budget = [22, 22, 21]", "turn_budget = 40"),
             ("patience_s = [0.2, 0.4]           # ...", "patience_s = [19.0, 20.0]           # ..."),
         ],
     );
@@ -715,15 +716,16 @@ fn the_late_reader_line_catches_a_yielder_that_cannot_wait_a_decision() {
     );
 }
 
-/// A crosser that steps out inside the expert's go threshold (1.2 s before
-/// the car arrives) is met by the expert in time, and by nobody later.
+/// A pedestrian that reaches the kerb only 1.0 s before a full-throttle
+/// arrival shows its intent (walking on, or stopping) in time for the
+/// expert, and for nobody later.
 #[test]
-fn the_late_reader_line_catches_a_step_out_inside_the_experts_go_threshold() {
+fn the_late_reader_line_catches_a_tell_too_late_for_a_reaction() {
     assert_late_reader_catches(
         ScenarioKind::PedestrianFeint,
         include_str!("../../scenarios/pedestrian_feint.toml"),
-        &[Tier::T2],
-        &[("step_lead_s = [1.7, 1.9]", "step_lead_s = [1.0, 1.1]")],
+        &[Tier::T1],
+        &[("kerb_lead_s = [1.3, 1.6]", "kerb_lead_s = [1.0, 1.1]")],
     );
 }
 
@@ -871,29 +873,34 @@ fn the_noisy_tier_is_noisy_from_its_first_reading() {
     }
 }
 
-/// The realism line catches a road user that counts hang-back cumulatively
-/// and then starts in front of an ego that can no longer stop comfortably:
-/// the crosswalk's tier-2 feinter as built today is one (an open line of
-/// `validate`). Every flagged episode is one in which a waiting road user
-/// did take its turn, and the check fails on it.
+/// The realism line catches a road user that starts in front of an ego
+/// that can no longer stop comfortably: the intersection's stopped yielder
+/// takes a random driver braking inside firm stopping distance for one
+/// hanging back (an open line of `validate`). Every flagged episode is one
+/// in which a waiting road user did take its turn, and the check fails on
+/// it; the crosswalk's pedestrians, which judge the gap in front of them,
+/// are never flagged.
 #[test]
-fn the_realism_line_catches_a_cumulative_feinter_stepping_into_a_car_that_cannot_stop() {
+fn the_realism_line_catches_a_road_user_stepping_into_a_car_that_cannot_stop() {
     use negotiator::baselines::{Cell, run_cell};
     let set = ScenarioSet::default();
     let mut flagged = Vec::new();
-    for policy in PolicyKind::ALL {
-        let cell = Cell { scenario: ScenarioKind::PedestrianFeint, tier: Tier::T2, policy };
-        let n = run_cell(&set, cell, 200, 0)
-            .iter()
-            .filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0)
-            .inspect(|r| assert_eq!(r.disposition.name(), "feinter", "only a feinter waits for the ego on tier 2"))
-            .count();
-        flagged.push((cell, n));
+    for (scenario, tier) in [(ScenarioKind::YieldStandoff, Tier::T3), (ScenarioKind::PedestrianFeint, Tier::T2)] {
+        for policy in PolicyKind::ALL {
+            let cell = Cell { scenario, tier, policy };
+            let n = run_cell(&set, cell, 200, 0)
+                .iter()
+                .filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0)
+                .inspect(|r| assert_eq!(r.disposition.name(), "yielder", "only a yielder waits for the ego here"))
+                .count();
+            flagged.push((cell, n));
+        }
     }
     assert!(flagged.iter().any(|(_, n)| *n > 0), "{flagged:?}");
     let check = validate::check_gap_acceptance(&flagged, &[]);
     assert!(!check.pass, "{}", check.figure);
-    assert!(check.figure.contains("pedestrian_feint/t2"), "{}", check.figure);
+    assert!(check.figure.contains("yield_standoff/t3"), "{}", check.figure);
+    assert!(check.figure.contains("pedestrian_feint 0"), "{}", check.figure);
     let clean: Vec<_> = flagged.iter().map(|(c, _)| (*c, 0)).collect();
     assert!(validate::check_gap_acceptance(&clean, &[]).pass);
 }
@@ -923,26 +930,29 @@ fn the_merge_never_takes_its_turn_in_front_of_an_ego_that_cannot_stop() {
 }
 
 /// The cautious readers are held to the expert's bar on every cell: the
-/// check fails on a cell below it (the crosswalk's delayed step-out today,
-/// an open line) and passes on the intersection, where caution is not
-/// punished.
+/// check passes on the crosswalk's delayed step-out, and fails once its
+/// feinter takes a gap at the moment a crosser would step out, before a
+/// driver who eased off while unsure has seen that none did.
 #[test]
 fn the_caution_line_holds_cautious_readers_to_their_bar() {
-    let set = ScenarioSet::default();
-    let cells = |kind: ScenarioKind, tier: Tier| {
+    let cells = |set: &ScenarioSet| {
         let spec = GridSpec {
-            scenarios: vec![kind],
-            tiers: vec![tier],
+            scenarios: vec![ScenarioKind::PedestrianFeint],
+            tiers: vec![Tier::T2],
             policies: PolicyKind::CAUTIOUS_READERS.to_vec(),
             episodes: 100,
             seed_base: 0,
         };
-        run_grid(&set, &spec, &|_, _| {})
+        run_grid(set, &spec, &|_, _| {})
     };
-    let intersection = validate::check_caution(&cells(ScenarioKind::YieldStandoff, Tier::T2));
-    assert!(intersection.pass, "{}", intersection.figure);
-    let crosswalk = validate::check_caution(&cells(ScenarioKind::PedestrianFeint, Tier::T2));
-    assert!(!crosswalk.pass, "{}", crosswalk.figure);
+    let honest = validate::check_caution(&cells(&ScenarioSet::default()));
+    assert!(honest.pass, "{}", honest.figure);
+    let set = planted_set(
+        include_str!("../../scenarios/pedestrian_feint.toml"),
+        &[("look_s = [0.5, 0.7]", "look_s = [0.0, 0.0]")],
+    );
+    let planted = validate::check_caution(&cells(&set));
+    assert!(!planted.pass, "{}", planted.figure);
 }
 
 /// On the merge, a driver who eases off while unsure reads a car making
@@ -965,36 +975,36 @@ fn the_merge_does_not_punish_caution_on_any_tier() {
     assert!(check.figure.contains("0 of 6 cells below a bar"), "{}", check.figure);
 }
 
-/// On the crosswalk's tiers 1 and 3, where the pedestrian accepts gaps as
-/// people do, a driver who eases off while unsure still finishes: the
-/// cautious readers hold the bar on seeds other than `validate`'s. (Before,
+/// On the crosswalk, where the pedestrian accepts gaps as people do, a
+/// driver who eases off while unsure still finishes: the cautious readers
+/// hold the bar on every tier, on seeds other than `validate`'s. (Before,
 /// a feinter counted every moment of easing off from the start, and stepped
 /// out in front of them on every feinter episode.)
 #[test]
-fn the_crosswalk_does_not_punish_caution_where_pedestrians_accept_gaps() {
+fn the_crosswalk_does_not_punish_caution() {
     let set = ScenarioSet::default();
     let spec = GridSpec {
         scenarios: vec![ScenarioKind::PedestrianFeint],
-        tiers: vec![Tier::T1, Tier::T3],
+        tiers: Tier::ALL.to_vec(),
         policies: PolicyKind::CAUTIOUS_READERS.to_vec(),
         episodes: 200,
         seed_base: 5000,
     };
     let check = validate::check_caution(&run_grid(&set, &spec, &|_, _| {}));
     assert!(check.pass, "{}", check.figure);
-    assert!(check.figure.contains("0 of 4 cells below a bar"), "{}", check.figure);
+    assert!(check.figure.contains("0 of 6 cells below a bar"), "{}", check.figure);
 }
 
 /// A pedestrian that accepts gaps never steps in front of a car that could
-/// no longer stop: over every built-in policy on the crosswalk's tiers 1 and
-/// 3, on seeds other than `validate`'s, the realism line reads 0, and a
+/// no longer stop: over every built-in policy on every tier of the
+/// crosswalk, on seeds other than `validate`'s, the realism line reads 0, and a
 /// planted count shows in its figure.
 #[test]
 fn a_gap_accepting_pedestrian_never_steps_into_a_car_that_cannot_stop() {
     use negotiator::baselines::{Cell, run_cell};
     let set = ScenarioSet::default();
     let mut counted = Vec::new();
-    for tier in [Tier::T1, Tier::T3] {
+    for tier in Tier::ALL {
         for policy in PolicyKind::ALL {
             let cell = Cell { scenario: ScenarioKind::PedestrianFeint, tier, policy };
             let runs = run_cell(&set, cell, 200, 3000);

@@ -316,7 +316,7 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | yield_standoff | 2 | 3 | 15.67 | 24 | 49973 | 89.1% | 407 |
     | yield_standoff | 3 | 3 | 14.00 | 24 | 39458 | 87.6% | 356 |
     | pedestrian_feint | 1 | 3 | 13.00 | 22 | 31094 | 86.8% | 336 |
-    | pedestrian_feint | 2 | 3 | 15.00 | 20 | 40385 | 88.5% | 396 |
+    | pedestrian_feint | 2 | 3 | 17.00 | 22 | 51313 | 89.8% | 446 |
     | pedestrian_feint | 3 | 3 | 13.00 | 21 | 31077 | 86.8% | 333 |
     | contested_merge | 1 | 3 | 17.33 | 25 | 58775 | 90.2% | 457 |
     | contested_merge | 2 | 3 | 23.33 | 25 | 108997 | 92.1% | 631 |

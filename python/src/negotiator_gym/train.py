@@ -43,9 +43,15 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--envs", type=int, default=8, help="environments stepped together (sessions of one env-server batch connection, at most 64)")
     p.add_argument("--curve-points", type=int, default=20, help="evaluations along the run")
     p.add_argument("--curve-episodes", type=int, default=100, help="held-out episodes per evaluation")
+    p.add_argument("--ent-coef", type=float, default=0.01, help="PPO's entropy bonus (exploration)")
+    p.add_argument("--gamma", type=float, default=0.99, help="PPO's discount")
+    p.add_argument("--n-steps", type=int, default=256, help="steps per environment per PPO update")
+    p.add_argument("--learning-rate", type=float, default=3e-4, help="PPO's learning rate")
     args = p.parse_args(argv)
-    if args.steps <= 0 or args.envs <= 0 or args.curve_points <= 0 or args.curve_episodes <= 0:
-        p.error("--steps, --envs, --curve-points and --curve-episodes must be positive")
+    if min(args.steps, args.envs, args.curve_points, args.curve_episodes, args.n_steps) <= 0:
+        p.error("--steps, --envs, --curve-points, --curve-episodes and --n-steps must be positive")
+    if args.ent_coef < 0 or not 0 < args.gamma <= 1 or args.learning_rate <= 0:
+        p.error("--ent-coef must be at least 0, --gamma in (0, 1], --learning-rate positive")
     return args
 
 
@@ -94,12 +100,12 @@ def train(args: argparse.Namespace, base_url: str) -> None:
     model = PPO(
         "MlpPolicy",
         venv,
-        n_steps=256,
+        n_steps=args.n_steps,
         batch_size=256,
         n_epochs=10,
-        gamma=0.99,
-        learning_rate=3e-4,
-        ent_coef=0.01,
+        gamma=args.gamma,
+        learning_rate=args.learning_rate,
+        ent_coef=args.ent_coef,
         seed=args.seed,
         device="cpu",
         verbose=0,

@@ -105,9 +105,12 @@ fn follow_in_lane(v: f64, v_max: f64, cars: [&Track; 2]) -> Action {
 /// fixes; any other is given way to).
 pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::ContestedMerge,
-    expert: |scene, v, v_max, _last| match scene.tracks() {
-        [lane_car, follower] => expert(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),
-        _ => Move::not_yet(super::hold_back(scene, v)),
+    expert: |obs| match obs.scene.tracks() {
+        [lane_car, follower] => {
+            let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
+            expert(v, v_max, obs.scene.ego_to_conflict_m(), lane_car, follower)
+        }
+        _ => Move::not_yet(super::hold_back(&obs.scene, obs.ego.speed_mps)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
         [lane_car, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),

@@ -24,7 +24,7 @@ use crate::scenario::ScenarioKind;
 /// defines its own.
 pub(crate) struct Rules {
     scenario: ScenarioKind,
-    expert: fn(&Scene, f64, f64, Option<Action>) -> Move,
+    expert: fn(&Observation) -> Move,
     cue_follower: fn(&Scene, f64, f64) -> Action,
 }
 
@@ -66,14 +66,9 @@ fn hold_back(scene: &Scene, v: f64) -> Action {
     super::hedge(v, scene.ego_to_conflict_m())
 }
 
-/// The expert's move on `scene`: its scenario's rule.
-fn expert_move(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Move {
-    rules(scene).map_or_else(|| Move::not_yet(hold_back(scene, v)), |r| (r.expert)(scene, v, v_max, last))
-}
-
-/// The expert's action on `scene`.
-fn expert_action(scene: &Scene, v: f64, v_max: f64, last: Option<Action>) -> Action {
-    expert_move(scene, v, v_max, last).action
+/// The expert's move on `obs`: its scene's scenario's rule.
+fn expert_move(obs: &Observation) -> Move {
+    rules(&obs.scene).map_or_else(|| Move::not_yet(hold_back(&obs.scene, obs.ego.speed_mps)), |r| (r.expert)(obs))
 }
 
 /// Of two actions, the one that brakes harder (accelerates less) at speed
@@ -118,8 +113,8 @@ pub const MODERATE_FRACTION: f64 = 0.6;
 /// scene is the same under both dispositions).
 pub struct ExpertLate {
     lag: usize,
-    /// The scenes seen so far this episode, oldest first.
-    seen: Vec<Scene>,
+    /// The scenes seen so far this episode and when, oldest first.
+    seen: Vec<(Scene, f64)>,
 }
 
 impl ExpertLate {
@@ -128,21 +123,22 @@ impl ExpertLate {
     }
 
     /// The observation it acts on: `obs` with the road users as they were
-    /// `lag` decisions ago.
+    /// `lag` decisions ago, and the clock then (what it has taken in is
+    /// that old: "still standing at 2.5 s" is read at 2.5 s).
     fn late_view(&mut self, obs: &Observation) -> Observation {
         // A new episode (a policy reused without `reset`) starts afresh.
         if obs.turn <= 1 {
             self.seen.clear();
         }
-        self.seen.push(obs.scene);
-        let older = self.seen[self.seen.len().saturating_sub(1 + self.lag)];
-        Observation { scene: obs.scene.with_road_users_of(&older), ..*obs }
+        self.seen.push((obs.scene, obs.time_s));
+        let (older, then) = self.seen[self.seen.len().saturating_sub(1 + self.lag)];
+        Observation { scene: obs.scene.with_road_users_of(&older), time_s: then, ..*obs }
     }
 }
 
 impl Policy for Expert {
     fn act(&mut self, obs: &Observation) -> Action {
-        expert_action(&obs.scene, obs.ego.speed_mps, obs.ego.speed_limit_mps, obs.last_action)
+        expert_move(obs).action
     }
 
     /// The reference belief: the ideal observer's.
@@ -154,7 +150,7 @@ impl Policy for Expert {
 impl Policy for ExpertCautious {
     fn act(&mut self, obs: &Observation) -> Action {
         let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
-        let m = expert_move(&obs.scene, v, v_max, obs.last_action);
+        let m = expert_move(obs);
         if m.go { m.action } else { gentler(v, v_max, m.action, Action::new(Maneuver::Yield, GENTLE_YIELD)) }
     }
 }
@@ -162,7 +158,7 @@ impl Policy for ExpertCautious {
 impl Policy for ExpertHedge {
     fn act(&mut self, obs: &Observation) -> Action {
         let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
-        let m = expert_move(&obs.scene, v, v_max, obs.last_action);
+        let m = expert_move(obs);
         if m.go {
             return m.action;
         }
@@ -229,7 +225,7 @@ mod tests {
                         while !episode.is_done() {
                             let obs = *episode.observation();
                             let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
-                            let m = expert_move(&obs.scene, v, v_max, obs.last_action);
+                            let m = expert_move(&obs);
                             let action = policy.act(&obs);
                             if m.go {
                                 assert_eq!(action, m.action, "{kind}/t{tier} seed {seed}");

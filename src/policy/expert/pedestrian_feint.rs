@@ -18,6 +18,10 @@ const PACE_MPS: f64 = 10.5;
 /// be moving.
 const COMMIT_ETA_S: f64 = 1.2;
 
+/// A pedestrian who steps out late (the delayed step-out) is moving by
+/// this time (s): the world's latest step-out, plus a decision.
+const NO_STEP_OUT_BY_S: f64 = 2.5;
+
 /// A pedestrian standing this near the road (lateral from the near kerb,
 /// m), its toes at the kerb's edge, is about to step in; one who waits for
 /// cars stands back from the edge.
@@ -56,9 +60,9 @@ fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
 /// fixes; any other is given way to).
 pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::PedestrianFeint,
-    expert: |scene, v, v_max, _last| match scene.tracks() {
-        [pedestrian] => expert(v, v_max, scene.ego_to_conflict_m(), pedestrian),
-        _ => Move::not_yet(super::hold_back(scene, v)),
+    expert: |obs| match obs.scene.tracks() {
+        [pedestrian] => expert(obs.ego.speed_mps, obs.time_s, obs.scene.ego_to_conflict_m(), pedestrian),
+        _ => Move::not_yet(super::hold_back(&obs.scene, obs.ego.speed_mps)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
         [pedestrian] => cue_follower(v, v_max, scene.ego_to_conflict_m(), pedestrian),
@@ -69,9 +73,11 @@ pub(super) const RULES: super::Rules = super::Rules {
 /// The expert: give way to a pedestrian moving into or through the road,
 /// or standing at the kerb's edge (about to step in); keep a going pace
 /// toward one who walks to or waits back from the edge while a stop stays
-/// possible, and go once it is due so soon that a crosser would already
-/// have moved (a standing pedestrian then waits for the ego).
-pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Move {
+/// possible, and go once it stopped there to wait, or stands there when a
+/// crosser would already have moved (by `NO_STEP_OUT_BY_S`, or with the
+/// ego due within `COMMIT_ETA_S`): a standing pedestrian then waits for
+/// the ego.
+pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
     let lat = p.now.position_m;
     let vel = p.now.velocity_mps;
     if d < 0.0 || (lat > PATH_FAR + 0.1 && vel >= -0.1) {
@@ -88,7 +94,10 @@ pub(crate) fn expert(v: f64, _v_max: f64, d: f64, p: &Track) -> Move {
     let eta = if v > 0.5 { d / v } else { f64::INFINITY };
     // It walked up and stopped back from the edge: it waits for the ego.
     let stopped_to_wait = standing && p.past.iter().any(|s| s.velocity_mps > 0.3);
-    if stopped_to_wait || (standing && eta <= COMMIT_ETA_S) {
+    // Still standing back from the edge once any late crosser would be
+    // moving: it waits for the ego.
+    let no_step_out = standing && time_s >= NO_STEP_OUT_BY_S;
+    if stopped_to_wait || no_step_out || (standing && eta <= COMMIT_ETA_S) {
         return Move::go(go());
     }
     if !can_wait_a_turn(v, d) {

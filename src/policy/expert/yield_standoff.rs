@@ -78,9 +78,12 @@ fn arrives_after(v: f64, v_max: f64, d: f64, car: &Track) -> bool {
 /// fixes; any other is given way to).
 pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::YieldStandoff,
-    expert: |scene, v, v_max, last| match scene.tracks() {
-        [other, follower] => expert(v, v_max, scene.ego_to_conflict_m(), other, follower, last),
-        _ => Move::not_yet(super::hold_back(scene, v)),
+    expert: |obs| match obs.scene.tracks() {
+        [other, follower] => {
+            let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
+            expert(v, v_max, obs.scene.ego_to_conflict_m(), other, follower, obs.last_action)
+        }
+        _ => Move::not_yet(super::hold_back(&obs.scene, obs.ego.speed_mps)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
         [other, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), other, follower),
