@@ -693,11 +693,8 @@ pub fn check_gap_acceptance(unstoppable: &[(Cell, usize)], blind: &[BlindCell]) 
 
 /// Invariants the built-in scenarios are known not to meet yet: printed as
 /// OPEN, and not failing `validate` unless `strict`. A check goes here only
-/// with a note on the issue that tracks it. Today: the intersection's
-/// stopped yielder takes a driver braking inside firm stopping distance for
-/// one hanging back, which is what keeps a blind plan that comes on fast
-/// and then rolls through from winning its tier 3 (docs/validate.md).
-pub const OPEN_CHECKS: [&str; 1] = ["road users accept gaps"];
+/// with a note on the issue that tracks it. Today: none.
+pub const OPEN_CHECKS: [&str; 0] = [];
 
 /// Run every invariant at `n` seeds per cell; the blind-policy search spends
 /// `search_budget` episodes per cell. `strict`: every check gates, the open

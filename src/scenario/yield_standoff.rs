@@ -409,11 +409,14 @@ impl YieldWorld {
             let passed = ego.s > HALF_ZONE;
             // It acts on what the ego does now: an ego that hung back
             // earlier and is coming on now is no invitation (and one that
-            // could no longer stop at all is coming). Waiting also for an
-            // ego that could no longer stop *firmly* lets a blind plan that
-            // comes on fast and then rolls through win tier 3
-            // (docs/validate.md).
-            let gap_now = !self.ego_coming(ego);
+            // could no longer stop at all is coming). So is one still
+            // moving that brakes but will not stop short of the zone (nor
+            // could comfortably): no one at a stop line starts in front of
+            // it. Waiting for every ego that could no longer stop *firmly*,
+            // braking or not, lets a blind plan that comes on fast and then
+            // rolls through win tier 3 (docs/validate.md).
+            let braking_through = ego.a <= -0.5 && ego.v >= 1.5 && !self.approach(ego).can_stop();
+            let gap_now = !self.ego_coming(ego) && !braking_through;
             let turn = self.patience.run_out() && gap_now;
             self.turns_taken += (turn && !passed) as u32;
             if passed || turn {

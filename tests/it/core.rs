@@ -873,36 +873,32 @@ fn the_noisy_tier_is_noisy_from_its_first_reading() {
     }
 }
 
-/// The realism line catches a road user that starts in front of an ego
-/// that can no longer stop comfortably: the intersection's stopped yielder
-/// takes a random driver braking inside firm stopping distance for one
-/// hanging back (an open line of `validate`). Every flagged episode is one
-/// in which a waiting road user did take its turn, and the check fails on
-/// it; the crosswalk's pedestrians, which judge the gap in front of them,
-/// are never flagged.
+/// The intersection's stopped yielder and the crosswalk's delayed step-out
+/// meet the realism line over every built-in policy on `validate`'s seeds:
+/// a yielder once took a random driver braking inside firm stopping
+/// distance, and not stopping short, for one hanging back (2 episodes on
+/// tier 3), and the tier-2 feinter counted hang-back in all (6). The check
+/// fails on a planted count, and names the cell.
 #[test]
-fn the_realism_line_catches_a_road_user_stepping_into_a_car_that_cannot_stop() {
+fn no_waiting_road_user_steps_into_a_car_that_cannot_stop() {
     use negotiator::baselines::{Cell, run_cell};
     let set = ScenarioSet::default();
-    let mut flagged = Vec::new();
+    let mut counted = Vec::new();
     for (scenario, tier) in [(ScenarioKind::YieldStandoff, Tier::T3), (ScenarioKind::PedestrianFeint, Tier::T2)] {
         for policy in PolicyKind::ALL {
             let cell = Cell { scenario, tier, policy };
-            let n = run_cell(&set, cell, 200, 0)
-                .iter()
-                .filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0)
-                .inspect(|r| assert_eq!(r.disposition.name(), "yielder", "only a yielder waits for the ego here"))
-                .count();
-            flagged.push((cell, n));
+            let runs = run_cell(&set, cell, 200, 0);
+            counted.push((cell, runs.iter().filter(|r| r.grades.diagnostics.unstoppable_turns_taken > 0).count()));
         }
     }
-    assert!(flagged.iter().any(|(_, n)| *n > 0), "{flagged:?}");
-    let check = validate::check_gap_acceptance(&flagged, &[]);
+    let check = validate::check_gap_acceptance(&counted, &[]);
+    assert!(check.pass, "{}", check.figure);
+    let mut planted = counted.clone();
+    let random = planted.iter().position(|(c, _)| c.policy == PolicyKind::Random).unwrap();
+    planted[random].1 = 2;
+    let check = validate::check_gap_acceptance(&planted, &[]);
     assert!(!check.pass, "{}", check.figure);
-    assert!(check.figure.contains("yield_standoff/t3"), "{}", check.figure);
-    assert!(check.figure.contains("pedestrian_feint 0"), "{}", check.figure);
-    let clean: Vec<_> = flagged.iter().map(|(c, _)| (*c, 0)).collect();
-    assert!(validate::check_gap_acceptance(&clean, &[]).pass);
+    assert!(check.figure.contains("random on yield_standoff/t3 x2"), "{}", check.figure);
 }
 
 /// The merge meets the realism line by construction: over every built-in
@@ -1019,14 +1015,18 @@ fn a_gap_accepting_pedestrian_never_steps_into_a_car_that_cannot_stop() {
     assert!(figure.contains("pedestrian_feint 3"), "{figure}");
 }
 
-/// The learned adversary's line passes on the built-in intersection's tier
-/// 3 and catches the hack it once found there: a yielder that, having taken
-/// its turn, pulled away at 4 m/s let a policy that outwaited it still
-/// finish on the last decision (a success with the wrong choice).
+/// The learned adversary's line passes on the built-in crosswalk's tier 1
+/// and catches an outwaiting win planted there: a feinter that, having
+/// taken its turn, crosses briskly (1.4-1.5 m/s instead of 0.5-0.6) lets a
+/// policy that waits for it and then goes finish (a success with the wrong
+/// choice). Its first catch, on the intersection's tier 3 (a yielder that
+/// pulled away at 4 m/s), rested on a yielder that stepped in front of a
+/// car braking too late to stop; since the yielder waits for such a car,
+/// that play is gone with it.
 #[test]
-fn learned_adversary_catches_an_outwaited_yielder_that_clears_in_time() {
+fn learned_adversary_catches_an_outwaited_feinter_that_clears_in_time() {
     let check = |set: &ScenarioSet| {
-        let (kind, tier) = (ScenarioKind::YieldStandoff, Tier::T3);
+        let (kind, tier) = (ScenarioKind::PedestrianFeint, Tier::T1);
         let cells = grid(set, &[kind], &[tier], 200);
         let learned = validate::learned_adversaries(
             set,
@@ -1040,9 +1040,9 @@ fn learned_adversary_catches_an_outwaited_yielder_that_clears_in_time() {
     let honest = check(&ScenarioSet::default());
     assert!(honest.pass, "{}", honest.figure);
     let planted = check(&planted_set(
-        include_str!("../../scenarios/yield_standoff.toml"),
-        &[("go_speed_mps = 3.5 ", "go_speed_mps = 4.0 ")],
+        include_str!("../../scenarios/pedestrian_feint.toml"),
+        &[("give_up_speed_mps = [0.5, 0.6]    # a", "give_up_speed_mps = [1.4, 1.5]    # a")],
     ));
     assert!(!planted.pass, "{}", planted.figure);
-    assert!(planted.figure.contains("yield_standoff/t3"), "{}", planted.figure);
+    assert!(planted.figure.contains("pedestrian_feint/t1"), "{}", planted.figure);
 }
