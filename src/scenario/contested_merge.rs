@@ -30,8 +30,9 @@
 //!   could still stop firmly short of the merge point: it
 //!   passes only a little faster than the ego (braking with an ego that
 //!   brakes, and, once wholly ahead of it, holding its pace however the
-//!   ego accelerates) until it has cleared the merge point, and pulls away
-//!   gently, the follower closing the door behind it;
+//!   ego accelerates) until its follower, too, has cleared the merge
+//!   point, and pulls away gently, the follower closing the door behind
+//!   it;
 //! - tier 3 (merge bluff): both dispositions first ease off (more gently
 //!   than on tier 1) to `floor_fraction` of the cruise; only a car making
 //!   room slows further. Once its easing off is on show, the bluffer closes
@@ -61,8 +62,9 @@
 //! - outwaiting: a car making room that covered a slow ego passes it only a
 //!   little faster than it goes and pulls away gently, so waiting for both
 //!   lane cars costs more than the turn budget leaves; dragging it up to
-//!   speed first and then braking hard does not help, since it brakes
-//!   with the ego until it has cleared the merge point, and neither does
+//!   speed first (beside it, so that it keeps level) and then braking hard
+//!   does not help, since it brakes with the ego until its follower has
+//!   cleared the merge point too, and neither does
 //!   stopping and then accelerating behind it to pull it through (PPO's
 //!   plays, see docs/rl.md), since ahead of the ego it holds its pace;
 //! - surging and lulling (keeping pace in bursts to arrive just behind a
@@ -542,9 +544,10 @@ impl MergeWorld {
         let lane = self.lane_car;
         let p = &self.params.lane;
         let rel = lane.s - ego.s;
-        // Until it has cleared the merge point it stays within reach of an
-        // ego on the ramp: an ego that braked hard is passed slowly too.
-        let clearing = lane.s < self.merge_point + CAR_LENGTH;
+        // Until its follower has cleared the merge point it stays within
+        // reach of an ego on the ramp: an ego that braked hard is passed
+        // slowly, by both, however fast it had pulled them along before.
+        let clearing = self.follower.s < self.merge_point + CAR_LENGTH;
         if !self.ego_in_lane(ego) && (rel < CAR_LENGTH + 1.0 || clearing) {
             // Near the ego on the ramp: keep just ahead of it (catching up
             // if behind), however it moves, so that it cannot cut in ahead.

@@ -72,7 +72,7 @@ fn golden_vectors_pin_trajectories() {
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 6, &wait), @"feinter timeout turns 22 t 11.0 ego (-19.0937, 0.0000) v 0.0000 other (0.0000, 2.3682) v 0.5787 reward -0.147477 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 21 t 10.5 ego (-19.5957, 0.0000) v 0.5000 other (0.0000, 6.5888) v 0.0000 reward -0.149972 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (34.7529, 0.0000) v 6.4000 reward -0.279279 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 25 t 12.5 ego (-0.6330, -3.5000) v 0.0000 other (29.2179, 0.0000) v 3.7000 reward -0.279279 dc 0.000");
     let ease =
         [Action::new(Maneuver::Yield, 0.3), Action::new(Maneuver::Proceed, 0.5), Action::new(Maneuver::Proceed, 0.5)];
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 4, &ease), @"committed collision turns 7 t 3.4 ego (14.3184, -1.8295) v 11.1318 other (15.9869, 0.0000) v 11.3202 reward -1.000000 dc 0.000");
@@ -476,6 +476,33 @@ fn dragging_the_platoon_through_the_merge_point_does_not_win() {
     let config = set.get(ScenarioKind::ContestedMerge);
     let mut ep = Episode::with_disposition(config, Tier::T1, 10002, negotiator::scenario::Disposition::MakesRoom);
     for action in actions.iter().chain(std::iter::repeat(&go(0.0))) {
+        if ep.is_done() {
+            break;
+        }
+        ep.step(*action);
+    }
+    assert_ne!(ep.finish().outcome, Outcome::Success);
+}
+
+/// The play PPO found on the merge's tier 1 trained for 3,000,000 steps
+/// (docs/rl.md), replayed on held-out seed 10001: brake so that the car
+/// making room covers the ego and takes its turn, accelerate beside it (it
+/// draws level, pulled to 11.7 m/s), brake hard to a stop short of the
+/// merge point, and merge behind the car and its follower as they pass at
+/// 7-8 m/s. A success (with the wrong choice) while a car taking its turn
+/// slowed with the ego only until it had cleared the merge point itself;
+/// it now does until its follower has too.
+#[test]
+fn dragging_the_platoon_beside_the_ego_and_dropping_it_does_not_win() {
+    let stop = Action::new(Maneuver::Stop, 0.5);
+    let go = |a: f64| Action::new(Maneuver::Proceed, a);
+    let mut actions = vec![stop, stop, go(0.6), go(1.0), go(1.0), go(1.0), go(0.6), stop, stop, stop];
+    actions.extend([Action::new(Maneuver::Yield, 0.3), go(1.0), go(0.6), go(1.0), go(0.6)]);
+    actions.extend([go(1.0), go(1.0), go(1.0), go(1.0), go(0.3), go(0.3), go(0.3), go(0.3)]);
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::ContestedMerge);
+    let mut ep = Episode::with_disposition(config, Tier::T1, 10001, negotiator::scenario::Disposition::MakesRoom);
+    for action in actions.iter().chain(std::iter::repeat(&Action::new(Maneuver::Yield, 0.1))) {
         if ep.is_done() {
             break;
         }
