@@ -14,13 +14,13 @@
 # Usage: scripts/python_check.sh [venv]   (CI runs it from .ci/run; `venv`
 # only builds the virtual environment)
 # Environment: PYTHON_CHECK_VENV (default target/python-check, reused when
-# present), HACK_CELL (default "yield_standoff 1"), PYTHON.
+# present), HACK_CELL (default "contested_merge 1", the cell whose hacks PPO found and the world now closes), PYTHON.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 venv=${PYTHON_CHECK_VENV:-$root/target/python-check}
 python=${PYTHON:-python3}
-read -r hack_scenario hack_tier <<<"${HACK_CELL:-yield_standoff 1}"
+read -r hack_scenario hack_tier <<<"${HACK_CELL:-contested_merge 1}"
 if [ ! -x "$venv/bin/python" ]; then
   "$python" -m venv "$venv"
   "$venv/bin/pip" install --quiet --upgrade pip
@@ -38,6 +38,8 @@ cd "$root/python"
 "$venv/bin/python" -m mypy src/negotiator src/negotiator_gym tests
 "$venv/bin/python" -m pytest -q
 cd "$root"
-echo "== the reward-hacking regression on the committed $hack_scenario tier $hack_tier checkpoint"
-"$venv/bin/python" -m negotiator_gym.hack_check --checkpoint "results/rl/$hack_scenario-t$hack_tier" \
-  --scenario "$hack_scenario" --tier "$hack_tier" --seed 0 -n 200
+for trained in "" warm-start-expert/; do
+  echo "== the reward-hacking regression on the committed $hack_scenario tier $hack_tier checkpoint (results/rl/$trained)"
+  "$venv/bin/python" -m negotiator_gym.hack_check --checkpoint "results/rl/$trained$hack_scenario-t$hack_tier" \
+    --scenario "$hack_scenario" --tier "$hack_tier" --seed 0 -n 200
+done

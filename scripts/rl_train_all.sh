@@ -5,6 +5,8 @@
 # Usage: scripts/rl_train_all.sh [STEPS (400000)] [N (200)] [JOBS (2)]
 # Needs a Python with `pip install "./python[rl]"` as PYTHON (default
 # python3) and the built binary (cargo build --release).
+# WARM_START=expert trains every cell from a DAgger warm start on that
+# built-in policy (train.py's --warm-start) into results/rl/warm-start-expert/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 steps=${1:-400000}
@@ -12,7 +14,8 @@ n=${2:-200}
 jobs=${3:-2}
 python=${PYTHON:-python3}
 export NEGOTIATOR_BIN=${NEGOTIATOR_BIN:-$(pwd)/target/release/negotiator}
-out=results/rl
+warm=${WARM_START:-}
+out=results/rl${warm:+/warm-start-$warm}
 mkdir -p "$out"
 cells=()
 for s in yield_standoff pedestrian_feint contested_merge; do
@@ -21,7 +24,7 @@ done
 train_cell() { # scenario tier
   mkdir -p "$out/$1-t$2"
   "$python" -m negotiator_gym.train --scenario "$1" --tier "$2" --steps "$steps" --seed 0 \
-    --out "$out/$1-t$2" >"$out/$1-t$2/train.log" 2>&1
+    ${warm:+--warm-start "$warm"} --out "$out/$1-t$2" >"$out/$1-t$2/train.log" 2>&1
   "$python" -m negotiator_gym.hack_check --checkpoint "$out/$1-t$2" --scenario "$1" --tier "$2" \
     --seed 0 -n "$n" --json >"$out/$1-t$2/hack_check.json" || true
   echo "$1 tier $2: $(tail -1 "$out/$1-t$2/train.log")"
@@ -33,9 +36,9 @@ for c in "${cells[@]}"; do
   if [ "$running" -ge "$jobs" ]; then wait -n; running=$((running - 1)); fi
 done
 wait
-"$python" - "$out" "$steps" <<'PY'
+"$python" - "$out" "$steps" "$warm" <<'PY'
 import json, pathlib, sys
-out, steps = pathlib.Path(sys.argv[1]), int(sys.argv[2])
+out, steps, warm = pathlib.Path(sys.argv[1]), int(sys.argv[2]), sys.argv[3] or None
 keys = ["scenario", "tier", "n", "success", "collision", "timeout", "decision_correctness", "hack_rate",
         "expert_hack_rate", "masked_success", "expert_success", "no_hack", "reads", "success_minus_expert",
         "success_minus_expert_stderr"]
@@ -44,6 +47,7 @@ for cell in sorted(out.glob("*-t[123]/hack_check.json")):
     e = json.loads(cell.read_text())
     row = {k: e[k] for k in keys}
     row["steps"] = steps
+    row["warm_start"] = warm
     row["checkpoint"] = str(cell.parent)
     entries.append(row)
 order = {"yield_standoff": 0, "pedestrian_feint": 1, "contested_merge": 2}

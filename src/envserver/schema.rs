@@ -85,7 +85,9 @@ pub(crate) fn metadata() -> Value {
             "seed": "a whole number from 0 to 2^64 - 1 (default: drawn below 2^53 and returned)",
             "view": "which forms the observations carry: full (default: instructions, scene, public, features), text (instructions and scene), public or features",
             "episode_id": "any string of 1 to 255 bytes (default: generated)",
+            "teacher": "a built-in policy (one of teachers): every observation but the last then carries its move (teacher), with the nearest discrete action",
         },
+        "teachers": crate::policy::PolicyKind::ALL.map(crate::policy::PolicyKind::name),
         "reward": REWARD,
         "feature_names": feature_names(),
         "discrete_actions": discrete_actions_json(),
@@ -112,8 +114,9 @@ pub(crate) fn openapi() -> Value {
             "scenario": {"type": "string", "enum": ScenarioKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>()},
             "tier": {"type": "integer", "minimum": 1, "maximum": 3},
             "seed": {"type": "integer", "minimum": 0},
-            "view": {"type": "string", "enum": ["full", "text", "public", "features"]},
+            "view": {"type": "string", "enum": super::session::View::NAMES},
             "episode_id": {"type": "string", "maxLength": 255},
+            "teacher": {"type": "string", "enum": crate::policy::PolicyKind::ALL.map(crate::policy::PolicyKind::name)},
         },
     });
     let step_body = json!({

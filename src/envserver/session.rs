@@ -5,16 +5,18 @@
 //!
 //! What a client can see before `done` is built from the public
 //! observation rounded to the precision the scene text prints (the same
-//! information the model gets in `eval`), the turn counters, and the
-//! parser's verdict on the client's own action. The disposition, the
+//! information the model gets in `eval`), the turn counters, the
+//! parser's verdict on the client's own action, and (when the reset asked
+//! for a teacher) a built-in policy's move on that rounded observation. The disposition, the
 //! evidence turn and the grades appear only in the terminal step's
 //! metadata (and in the state once the episode is over).
 
-use crate::action::{Action, ActionParseError, ParsedAction, parse_action};
-use crate::episode::Episode;
-use crate::features::features;
+use crate::action::{Action, ActionParseError, Maneuver, ParsedAction, parse_action};
+use crate::episode::{Episode, policy_seed};
+use crate::features::{features, nearest_discrete_action};
 use crate::instructions::SYSTEM_PROMPT;
 use crate::observation::{Observation, render_scene};
+use crate::policy::{Policy, PolicyKind};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use schemars::JsonSchema;
 use serde::Serialize;
@@ -94,7 +96,7 @@ impl View {
 }
 
 /// The fields a reset takes, all optional.
-pub(crate) const RESET_FIELDS: [&str; 5] = ["scenario", "tier", "seed", "view", "episode_id"];
+pub(crate) const RESET_FIELDS: [&str; 6] = ["scenario", "tier", "seed", "view", "episode_id", "teacher"];
 
 /// What a reset asks for, validated.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,6 +107,9 @@ pub(crate) struct ResetRequest {
     /// None: the server draws one (and returns it).
     pub seed: Option<u64>,
     pub episode_id: Option<String>,
+    /// A built-in policy whose move on each observation the observations
+    /// carry (`teacher`), for a learner that imitates it.
+    pub teacher: Option<PolicyKind>,
 }
 
 impl ResetRequest {
@@ -129,6 +134,7 @@ impl ResetRequest {
             view: View::Full,
             seed: None,
             episode_id: None,
+            teacher: None,
         };
         for (key, value) in data {
             if value.is_null() {
@@ -175,6 +181,13 @@ impl ResetRequest {
                             key,
                             format!("expected a string of 1 to {MAX_EPISODE_ID_LEN} bytes"),
                         )
+                    }),
+                },
+                "teacher" => match value.as_str().map(str::parse::<PolicyKind>) {
+                    Some(Ok(k)) => request.teacher = Some(k),
+                    _ => errors.push(|| {
+                        let names = PolicyKind::ALL.map(PolicyKind::name);
+                        FieldError::new("enum", key, format!("expected one of {}, got {value}", names.join(", ")))
                     }),
                 },
                 _ => errors.push(|| FieldError::unknown(key, &RESET_FIELDS)),
@@ -271,6 +284,10 @@ pub(crate) struct EnvObservation {
     /// `features`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub features: Option<Vec<f64>>,
+    /// The move the built-in policy the reset named as `teacher` makes on
+    /// this observation; absent without one and once the episode is over.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub teacher: Option<TeacherMove>,
     /// 1-based index of the decision this observation asks for.
     pub turn: u32,
     pub turn_budget: u32,
@@ -287,6 +304,19 @@ pub(crate) struct EnvObservation {
     /// Empty until the episode is over; then the grades (see the step
     /// response's `metadata`).
     pub metadata: Map<String, Value>,
+}
+
+/// A teacher's move. A built-in policy sees only the public observation,
+/// and the teacher is shown the rounded one the client reads, so its move
+/// tells the client nothing the observation does not.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, JsonSchema)]
+pub(crate) struct TeacherMove {
+    pub maneuver: Maneuver,
+    pub acceleration: f64,
+    /// The index in `/metadata`'s `discrete_actions` of the action nearest
+    /// this move: of those that go when it goes, the one commanding the
+    /// nearest acceleration at the ego's current speed.
+    pub discrete_action: usize,
 }
 
 /// One reply to a reset or a step, in OpenEnv's shape.
@@ -332,6 +362,25 @@ struct Live {
     parse_errors: u32,
     /// The grades, once the episode is over.
     graded: Option<Map<String, Value>>,
+    teacher: Option<Box<dyn Policy>>,
+    /// The teacher's move on the current observation.
+    advice: Option<TeacherMove>,
+}
+
+impl Live {
+    /// Ask the teacher (if any) for its move on the current observation;
+    /// called once per observation, as a policy is in `baselines`.
+    fn advise(&mut self) {
+        self.advice = match (&mut self.teacher, self.graded.is_some()) {
+            (Some(teacher), false) => {
+                let o = self.episode.observation().rounded();
+                let a = teacher.act(&o);
+                let discrete_action = nearest_discrete_action(a, o.ego.speed_mps, o.ego.speed_limit_mps);
+                Some(TeacherMove { maneuver: a.maneuver, acceleration: a.acceleration, discrete_action })
+            }
+            _ => None,
+        };
+    }
 }
 
 /// A session: at most one episode at a time.
@@ -353,11 +402,18 @@ impl Session {
     ) -> StepReply {
         let seed = request.seed.unwrap_or_else(draw);
         let episode = Episode::new(scenarios.get(request.scenario), request.tier, seed);
-        self.start(episode, request.view, request.episode_id.unwrap_or_else(new_id))
+        self.start(episode, request.view, request.episode_id.unwrap_or_else(new_id), request.teacher)
     }
 
-    fn start(&mut self, episode: Episode, view: View, episode_id: String) -> StepReply {
-        let live = Live { episode, view, episode_id, steps: 0, parse_errors: 0, graded: None };
+    fn start(&mut self, episode: Episode, view: View, episode_id: String, teacher: Option<PolicyKind>) -> StepReply {
+        let teacher = teacher.map(|kind| {
+            let mut policy = kind.build();
+            policy.reset(policy_seed(episode.spec()));
+            policy
+        });
+        let mut live =
+            Live { episode, view, episode_id, steps: 0, parse_errors: 0, graded: None, teacher, advice: None };
+        live.advise();
         let reply =
             StepReply { observation: observe(&live, true, Vec::new()), reward: None, done: false, metadata: None };
         self.live = Some(live);
@@ -382,6 +438,7 @@ impl Session {
             reward = graded.get("reward").and_then(Value::as_f64);
             live.graded = Some(graded);
         }
+        live.advise();
         let errors = parsed.errors.iter().map(ToString::to_string).collect();
         let observation = observe(live, false, errors);
         Ok(StepReply { observation, reward, done, metadata: live.graded.clone() })
@@ -419,6 +476,7 @@ fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservatio
         instructions: (first && view.text()).then(|| SYSTEM_PROMPT.to_string()),
         scene: view.text().then(|| render_scene(o)),
         features: public.as_ref().filter(|_| view.features()).map(|p| features(p, spec.tier)),
+        teacher: live.advice,
         public: public.filter(|_| view.public()),
         turn: o.turn,
         turn_budget: o.turn_budget,
@@ -489,7 +547,15 @@ mod tests {
         };
         let fields: Vec<&str> = errors.iter().map(|e| e.loc[0].as_str()).collect();
         assert_eq!(fields, ["episode_id", "seed", "senario", "tier"]);
-        for bad in [json!({"seed": 1.5}), json!({"seed": "3"}), json!({"scenario": 3}), json!({"view": "all"})] {
+        let r = ResetRequest::from_fields(&data(json!({"teacher": "expert_hedge"}))).unwrap();
+        assert_eq!(r.teacher, Some(crate::policy::PolicyKind::ExpertHedge));
+        for bad in [
+            json!({"seed": 1.5}),
+            json!({"seed": "3"}),
+            json!({"scenario": 3}),
+            json!({"view": "all"}),
+            json!({"teacher": "oracle"}),
+        ] {
             assert!(ResetRequest::from_fields(&data(bad)).is_err());
         }
     }
@@ -522,6 +588,7 @@ mod tests {
             view: View::Full,
             seed: Some(11),
             episode_id: None,
+            teacher: None,
         };
         let first = session.reset(&set, request, || unreachable!(), || "ep".to_string());
         let mut episode = Episode::new(set.get(ScenarioKind::PedestrianFeint), Tier::T2, 11);
@@ -552,6 +619,41 @@ mod tests {
         assert_eq!(session.step(&json!({"reply": "{}"})).unwrap_err(), SessionError::EpisodeOver("ep".to_string()));
     }
 
+    /// The teacher's move is the one its policy makes on the observation
+    /// the client reads, with the nearest discrete action; following that
+    /// action plays the expert to its success; the move is gone at the end.
+    #[test]
+    fn a_teacher_moves_on_the_observation_the_client_reads() {
+        use crate::features::DISCRETE_ACTIONS;
+        use crate::policy::PolicyKind;
+        let set = ScenarioSet::default();
+        let mut won = 0;
+        for seed in 0..20u64 {
+            let mut session = Session::default();
+            let request = ResetRequest {
+                scenario: ScenarioKind::ContestedMerge,
+                tier: Tier::T1,
+                view: View::Public,
+                seed: Some(seed),
+                episode_id: None,
+                teacher: Some(PolicyKind::Expert),
+            };
+            let mut reply = session.reset(&set, request, || unreachable!(), || "ep".into());
+            let mut expert = PolicyKind::Expert.build();
+            while !reply.done {
+                let advice = reply.observation.teacher.expect("a move on every observation");
+                let own = expert.act(reply.observation.public.as_ref().unwrap());
+                assert_eq!((advice.maneuver, advice.acceleration), (own.maneuver, own.acceleration));
+                let chosen = DISCRETE_ACTIONS[advice.discrete_action];
+                assert_eq!(chosen.maneuver.is_go(), own.maneuver.is_go());
+                reply = session.step(&serde_json::to_value(chosen).unwrap()).unwrap();
+            }
+            assert!(reply.observation.teacher.is_none());
+            won += usize::from(reply.metadata.unwrap()["outcome"] == "success");
+        }
+        assert!(won >= 19, "{won} of 20");
+    }
+
     /// Everything a client can read (the reset and step replies, the
     /// state) is byte-identical under both dispositions of a seed until the
     /// evidence turn, for every scenario and tier, driven by the expert
@@ -568,10 +670,13 @@ mod tests {
                         let [a, b] = kind.dispositions();
                         let mut sessions = [a, b].map(|d| {
                             let mut s = Session::default();
+                            // Every teacher in turn: its move is on the screen too.
+                            let teacher = PolicyKind::ALL[seed as usize % PolicyKind::ALL.len()];
                             let first = s.start(
                                 Episode::with_disposition(set.get(kind), tier, seed, d),
                                 View::Full,
                                 "ep".into(),
+                                Some(teacher),
                             );
                             (s, first)
                         });

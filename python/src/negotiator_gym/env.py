@@ -17,6 +17,14 @@ never a truncation). `info` is empty until the end; the last step's `info`
 has the outcome, reward, decision correctness, the evidence and commitment
 turns, the choice and the hidden disposition.
 
+Teacher: `teacher="expert"` (any built-in policy `negotiator baselines`
+names) adds `info["teacher_action"]` to the reset's and every step's info
+but the last: the index of the discrete action nearest the move that
+policy makes on the observation returned (env-server's `teacher`). A
+built-in policy reads only the public observation, so this is the
+observation's information, interpreted; `negotiator_gym.train
+--warm-start` imitates it before PPO starts.
+
 Seeds: `reset(seed=s)` plays benchmark seed `s` (the episode `negotiator
 eval --seed s -n 1` plays); a later `reset()` plays a seed drawn from the
 environment's generator in [2**32, 2**53), so training never meets the small
@@ -91,10 +99,17 @@ class Endpoint:
         meta = fetch_metadata(self.base_url, self.headers)
         self.feature_names: list[str] = list(meta["feature_names"])
         self.actions: list[dict[str, Any]] = list(meta["discrete_actions"])
+        self.teachers: list[str] = list(meta["teachers"])
         self.observation_space = spaces.Box(-FEATURE_BOUND, FEATURE_BOUND, (len(self.feature_names),), np.float32)
         self.action_space = spaces.Discrete(len(self.actions))
         # Every step message, encoded once.
         self.step_messages = [json.dumps({"type": "step", "data": a}) for a in self.actions]
+
+    def check_teacher(self, teacher: str | None) -> None:
+        """Refuse a teacher env-server does not have, naming the choices."""
+        if teacher is not None and teacher not in self.teachers:
+            self.close()
+            raise ValueError(f"unknown teacher {teacher!r}: one of {', '.join(self.teachers)}")
 
     def connect(self, path: str) -> Session:
         """A WebSocket connection to `path` (`/ws`, `/ws/batch`)."""
@@ -125,9 +140,20 @@ def draw_episode_seed(rng: np.random.Generator) -> int:
     return int(rng.integers(*_DRAWN_SEEDS))
 
 
-def reset_message(scenario: str, tier: int, seed: int, view: str) -> str:
-    """The reset message that plays benchmark seed `seed` of the cell."""
-    return json.dumps({"type": "reset", "data": {"scenario": scenario, "tier": tier, "seed": seed, "view": view}})
+def reset_message(scenario: str, tier: int, seed: int, view: str, teacher: str | None = None) -> str:
+    """The reset message that plays benchmark seed `seed` of the cell
+    (with `teacher`'s move on every observation, if one is named)."""
+    data: dict[str, Any] = {"scenario": scenario, "tier": tier, "seed": seed, "view": view}
+    if teacher is not None:
+        data["teacher"] = teacher
+    return json.dumps({"type": "reset", "data": data})
+
+
+def teacher_action(data: dict[str, Any]) -> int | None:
+    """The discrete action nearest the teacher's move on an answer's
+    observation (None without a teacher, and at the episode's end)."""
+    move = data["observation"].get("teacher")
+    return None if move is None else int(move["discrete_action"])
 
 
 def answer_data(answer: dict[str, Any]) -> dict[str, Any]:
@@ -162,6 +188,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         base_url: str | None = None,
         token: str | None = None,
         render_mode: str | None = None,
+        teacher: str | None = None,
     ) -> None:
         check_cell(scenario, tier)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -169,7 +196,9 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         self.scenario = scenario
         self.tier = tier
         self.render_mode = render_mode
+        self.teacher = teacher
         self._endpoint = Endpoint(base_url, token)
+        self._endpoint.check_teacher(teacher)
         self.base_url = self._endpoint.base_url
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions
@@ -212,14 +241,17 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         else:
             episode_seed = draw_episode_seed(self.np_random)
         view = "full" if self.render_mode == "ansi" else "features"
-        self._post_text(reset_message(self.scenario, self.tier, episode_seed, view))
+        self._post_text(reset_message(self.scenario, self.tier, episode_seed, view, self.teacher))
         self.episode_seed = episode_seed
 
     def receive_reset(self) -> tuple[np.ndarray, dict[str, Any]]:
         """The second half of `reset`: the episode's first observation."""
         answer = self._receive()
         self._done = False
-        return self._observe(answer), {"seed": self.episode_seed}
+        info: dict[str, Any] = {"seed": self.episode_seed}
+        if self.teacher is not None:
+            info["teacher_action"] = teacher_action(answer)
+        return self._observe(answer), info
 
     def step(self, action: np.int64 | int) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
         self.send_step(action)
@@ -241,6 +273,8 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         if done:
             self._done = True
             info = final_info(answer, self.episode_seed)
+        elif self.teacher is not None:
+            info["teacher_action"] = teacher_action(answer)
         reward = float(answer.get("reward") or 0.0)
         return self._observe(answer), reward, done, False, info
 

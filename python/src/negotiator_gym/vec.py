@@ -35,6 +35,7 @@ from negotiator_gym.env import (
     features,
     final_info,
     reset_message,
+    teacher_action,
 )
 
 # Most sessions one `/ws/batch` connection holds (env-server's bound).
@@ -89,7 +90,12 @@ class BatchVecEnv(VecEnv):
 
     Per environment step this costs the client about half the CPU of one
     connection per environment (`PipelinedVecEnv`; docs/rl.md has the
-    figures)."""
+    figures).
+
+    With `teacher` (a built-in policy's name), each environment's reset
+    and step infos carry `teacher_action` as `NegotiatorEnv`'s do, and
+    `teacher_actions` holds the teacher's action for every environment's
+    current observation."""
 
     def __init__(
         self,
@@ -98,6 +104,7 @@ class BatchVecEnv(VecEnv):
         tier: int = 1,
         base_url: str | None = None,
         token: str | None = None,
+        teacher: str | None = None,
     ) -> None:
         check_cell(scenario, tier)
         if not 1 <= num_envs <= MAX_BATCH_SESSIONS:
@@ -105,7 +112,10 @@ class BatchVecEnv(VecEnv):
         self.scenario = scenario
         self.tier = tier
         self.render_mode = None
+        self.teacher = teacher
+        self.teacher_actions = np.zeros(num_envs, dtype=np.int64)
         self._endpoint = Endpoint(base_url, token)
+        self._endpoint.check_teacher(teacher)
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions
         super().__init__(num_envs, self._endpoint.observation_space, self._endpoint.action_space)
@@ -128,7 +138,18 @@ class BatchVecEnv(VecEnv):
                 rng = self._rngs[i] = seeding.np_random()[0]
             episode_seed = draw_episode_seed(rng)
         self.episode_seeds[i] = episode_seed
-        return reset_message(self.scenario, self.tier, episode_seed, "features")
+        return reset_message(self.scenario, self.tier, episode_seed, "features", self.teacher)
+
+    def _read_reset(self, i: int, answer: dict[str, Any]) -> None:
+        self._obs[i] = features(answer)
+        self.reset_infos[i] = {"seed": self.episode_seeds[i]}
+        self._read_teacher(i, answer, self.reset_infos[i])
+
+    def _read_teacher(self, i: int, answer: dict[str, Any], info: dict[str, Any]) -> None:
+        if self.teacher is not None:
+            action = teacher_action(answer)
+            assert action is not None
+            self.teacher_actions[i] = info["teacher_action"] = action
 
     def _exchange(self, entries: list[str | None]) -> list[dict[str, Any] | None]:
         if self._ws is None:
@@ -145,8 +166,7 @@ class BatchVecEnv(VecEnv):
         answers = self._exchange([self._reset_entry(i, self._seeds[i]) for i in range(self.num_envs)])
         for i, answer in enumerate(answers):
             assert answer is not None
-            self._obs[i] = features(answer)
-            self.reset_infos[i] = {"seed": self.episode_seeds[i]}
+            self._read_reset(i, answer)
         self._reset_seeds()
         self._reset_options()
         return self._obs.copy()
@@ -175,12 +195,12 @@ class BatchVecEnv(VecEnv):
                 resets[i] = self._reset_entry(i, None)
             else:
                 self._obs[i] = features(answer)
+                self._read_teacher(i, answer, info)
             infos.append(info)
         if any(resets):
             for i, answer in enumerate(self._exchange(resets)):
                 if answer is not None:
-                    self._obs[i] = features(answer)
-                    self.reset_infos[i] = {"seed": self.episode_seeds[i]}
+                    self._read_reset(i, answer)
         return self._obs.copy(), rewards, dones, infos
 
     def close(self) -> None:
