@@ -300,6 +300,8 @@ def test_a_teacher_labels_every_observation_and_following_it_plays_the_expert(en
                 assert done == bool(dones[0])
                 assert ("teacher_action" in info) == (not done)
                 assert "teacher_action" not in plain_info
+            # The grades name the help the episode had.
+            assert (info["teacher"], plain_info["teacher"]) == ("expert", None)
             won += info["outcome"] == "success"
         assert won == 6
     finally:

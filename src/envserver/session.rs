@@ -362,7 +362,7 @@ struct Live {
     parse_errors: u32,
     /// The grades, once the episode is over.
     graded: Option<Map<String, Value>>,
-    teacher: Option<Box<dyn Policy>>,
+    teacher: Option<(PolicyKind, Box<dyn Policy>)>,
     /// The teacher's move on the current observation.
     advice: Option<TeacherMove>,
 }
@@ -372,7 +372,7 @@ impl Live {
     /// called once per observation, as a policy is in `baselines`.
     fn advise(&mut self) {
         self.advice = match (&mut self.teacher, self.graded.is_some()) {
-            (Some(teacher), false) => {
+            (Some((_, teacher)), false) => {
                 let o = self.episode.observation().rounded();
                 let a = teacher.act(&o);
                 let discrete_action = nearest_discrete_action(a, o.ego.speed_mps, o.ego.speed_limit_mps);
@@ -409,7 +409,7 @@ impl Session {
         let teacher = teacher.map(|kind| {
             let mut policy = kind.build();
             policy.reset(policy_seed(episode.spec()));
-            policy
+            (kind, policy)
         });
         let mut live =
             Live { episode, view, episode_id, steps: 0, parse_errors: 0, graded: None, teacher, advice: None };
@@ -434,7 +434,8 @@ impl Session {
         let done = live.episode.step(parsed.action).is_some();
         let mut reward = Some(0.0);
         if done {
-            let graded = grades(&live.episode, live.parse_errors);
+            let teacher = live.teacher.as_ref().map(|(kind, _)| *kind);
+            let graded = grades(&live.episode, live.parse_errors, teacher);
             reward = graded.get("reward").and_then(Value::as_f64);
             live.graded = Some(graded);
         }
@@ -490,9 +491,10 @@ fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservatio
     }
 }
 
-/// The terminal metadata: the outcome, the grades, the evidence timing and
-/// now the disposition.
-fn grades(episode: &Episode, parse_errors: u32) -> Map<String, Value> {
+/// The terminal metadata: the outcome, the grades, the evidence timing,
+/// now the disposition, and the teacher the episode was played with (null
+/// for none), so that no graded episode hides the help it had.
+fn grades(episode: &Episode, parse_errors: u32, teacher: Option<PolicyKind>) -> Map<String, Value> {
     let (outcome, g) = episode.grades();
     let t = episode.timing();
     let value = json!({
@@ -507,6 +509,7 @@ fn grades(episode: &Episode, parse_errors: u32) -> Map<String, Value> {
         "guessed": t.guessed(),
         "decisions": g.diagnostics.decisions,
         "parse_errors": parse_errors,
+        "teacher": teacher.map(PolicyKind::name),
         "efficiency": g.diagnostics.efficiency,
         "comfort": g.diagnostics.comfort,
         "min_gap_m": g.diagnostics.min_gap_m,
@@ -614,6 +617,7 @@ mod tests {
         let meta = last.metadata.unwrap();
         assert_eq!(meta["outcome"], record.outcome.name());
         assert_eq!(meta["disposition"], record.disposition.name());
+        assert_eq!(meta["teacher"], Value::Null);
         assert_eq!(session.state().step_count, steps);
         assert_eq!(session.state().disposition.as_deref(), Some(record.disposition.name()));
         assert_eq!(session.step(&json!({"reply": "{}"})).unwrap_err(), SessionError::EpisodeOver("ep".to_string()));
@@ -649,7 +653,9 @@ mod tests {
                 reply = session.step(&serde_json::to_value(chosen).unwrap()).unwrap();
             }
             assert!(reply.observation.teacher.is_none());
-            won += usize::from(reply.metadata.unwrap()["outcome"] == "success");
+            let graded = reply.metadata.unwrap();
+            assert_eq!(graded["teacher"], "expert");
+            won += usize::from(graded["outcome"] == "success");
         }
         assert!(won >= 19, "{won} of 20");
     }

@@ -15,7 +15,8 @@ success 0.9 to 1). `terminated` is env-server's `done` (the turn budget is
 part of the observation, so running out of turns is the task's own end,
 never a truncation). `info` is empty until the end; the last step's `info`
 has the outcome, reward, decision correctness, the evidence and commitment
-turns, the choice and the hidden disposition.
+turns, the choice, the teacher (None without one) and the hidden
+disposition.
 
 Teacher: `teacher="expert"` (any built-in policy `negotiator baselines`
 names) adds `info["teacher_action"]` to the reset's and every step's info
@@ -63,6 +64,7 @@ FINAL_INFO = (
     "choice",
     "guessed",
     "disposition",
+    "teacher",
 )
 
 
