@@ -8,8 +8,9 @@
 #   its mockllm must drive as eval's firm stop;
 # - Gymnasium: Gymnasium's and stable-baselines3's environment checkers on
 #   every cell, the Rust loop's episodes seed for seed, nothing before the
-#   evidence that depends on the disposition, training and the
-#   reward-hacking regression end to end;
+#   evidence that depends on the disposition, the in-process vector's
+#   episodes against the socket's (`pip install ./python/native`, built
+#   here), training and the reward-hacking regression end to end;
 # then the reward-hacking regression on a committed checkpoint (HACK_CELL).
 # Usage: scripts/python_check.sh [venv]   (CI runs it from .ci/run; `venv`
 # only builds the virtual environment)
@@ -32,6 +33,9 @@ if [ "${1:-}" = venv ]; then
   exit 0
 fi
 cargo build --release --quiet --bin negotiator --example reference_rollouts --example disposition_features
+# The native extension (NativeBatchVecEnv: env-server's batch sessions in
+# process, through PyO3), built by maturin into the same target directory.
+CARGO_TARGET_DIR=$root/target "$venv/bin/pip" install --quiet --force-reinstall "$root/python/native"
 "$venv/bin/python" -c 'import importlib.metadata as m; print(" ".join(f"{p} {m.version(p)}" for p in ["inspect_ai", "gymnasium", "stable_baselines3", "torch"]))'
 export NEGOTIATOR_BIN=$root/target/release/negotiator NEGOTIATOR_EXAMPLES=$root/target/release/examples
 cd "$root/python"

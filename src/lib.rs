@@ -51,6 +51,8 @@ pub mod baselines;
 pub(crate) mod belief;
 pub mod cli;
 pub(crate) mod envserver;
+/// env-server's `/ws/batch` in-process (the Python package's native vector).
+pub use envserver::InProcessBatch;
 pub mod episode;
 pub(crate) mod eval;
 pub mod export;

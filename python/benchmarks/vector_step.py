@@ -1,7 +1,9 @@
-"""The client's cost per environment step of the two vectorised
-environments, side by side on one local env-server: `BatchVecEnv` (one
-`/ws/batch` connection) and `PipelinedVecEnv` (one `/ws` connection per
-environment), stepping random actions, in alternating rounds.
+"""The client's cost per environment step of the vectorised environments,
+side by side on one local env-server: `BatchVecEnv` (one `/ws/batch`
+connection), `PipelinedVecEnv` (one `/ws` connection per environment) and
+`NativeBatchVecEnv` (the batch sessions in this process; `pip install
+./python/native`; its "client CPU" includes the sessions' own), stepping
+random actions, in alternating rounds.
 
     NEGOTIATOR_BIN=target/release/negotiator python python/benchmarks/vector_step.py [ENVS] [STEPS] [ROUNDS]
 
@@ -18,7 +20,7 @@ import numpy as np
 
 from negotiator.server import LocalServer, binary
 from negotiator_gym.env import NegotiatorEnv
-from negotiator_gym.vec import BatchVecEnv, PipelinedVecEnv
+from negotiator_gym.vec import BatchVecEnv, NativeBatchVecEnv, PipelinedVecEnv
 
 
 def measure(vec: Any, actions: np.ndarray) -> tuple[float, float]:
@@ -40,13 +42,14 @@ def main() -> None:
             for name, make in (
                 ("PipelinedVecEnv", lambda: PipelinedVecEnv([lambda: NegotiatorEnv(base_url=server.url)] * envs)),
                 ("BatchVecEnv", lambda: BatchVecEnv(envs, base_url=server.url)),
+                ("NativeBatchVecEnv", lambda: NativeBatchVecEnv(envs)),
             ):
                 vec = make()
                 try:
                     wall, cpu = measure(vec, actions)
                 finally:
                     vec.close()
-                print(f"round {round} {name:16} {envs} envs: {wall:5.1f} us wall, {cpu:5.1f} us client CPU per env-step")
+                print(f"round {round} {name:17} {envs} envs: {wall:5.1f} us wall, {cpu:5.1f} us client CPU per env-step")
     finally:
         server.close()
 

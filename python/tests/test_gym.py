@@ -123,6 +123,17 @@ def test_nothing_before_the_evidence_depends_on_the_disposition(env_server: str)
     assert compared > 100
 
 
+def same_first_reset(vec: Any, reference: Any, seed: int) -> None:
+    """Seed both vectors alike; assert that their first reset gave the
+    same observations and infos."""
+    for v in (vec, reference):
+        v.seed(seed)
+    first, ref_first = vec.reset(), reference.reset()
+    assert isinstance(first, np.ndarray) and isinstance(ref_first, np.ndarray)
+    assert np.array_equal(first, ref_first)
+    assert vec.reset_infos == reference.reset_infos
+
+
 def same_vector_step(got: Any, want: Any) -> int:
     """Assert that two vector steps gave the same observations, rewards,
     ends and infos; the number of episodes that ended."""
@@ -192,12 +203,7 @@ def test_the_batch_vector_plays_the_episodes_stable_baselines_own_vector_plays(e
     try:
         assert batch.observation_space == reference.observation_space
         assert batch.action_space == reference.action_space
-        for vec in (batch, reference):
-            vec.seed(11)
-        first, ref_first = batch.reset(), reference.reset()
-        assert isinstance(first, np.ndarray) and isinstance(ref_first, np.ndarray)
-        assert np.array_equal(first, ref_first)
-        assert batch.reset_infos == reference.reset_infos
+        same_first_reset(batch, reference, 11)
         space = batch.action_space
         assert isinstance(space, gym.spaces.Discrete)
         actions = np.random.default_rng(5).integers(0, int(space.n), size=(90, n))
@@ -325,3 +331,32 @@ def test_a_warm_start_imitates_the_teacher_before_ppo(env_server: str, tmp_path:
     assert float(rows[0]["steps"]) == 0 and float(rows[0]["success"]) >= 0.7, rows[0]
     timing = json.loads((out / "timing.json").read_text())
     assert timing["warm_start_steps"] >= 8000 - 4 * train.WARM_ROUNDS
+
+
+def test_the_native_vector_plays_the_batch_vectors_episodes(env_server: str) -> None:
+    """NativeBatchVecEnv holds env-server's batch sessions in this process:
+    from the same seed, through several episode ends, it gives the
+    observations, rewards, ends, infos and teacher actions of BatchVecEnv
+    over a `/ws/batch` connection."""
+    from negotiator_gym.vec import BatchVecEnv, NativeBatchVecEnv
+
+    n = 4
+    native = NativeBatchVecEnv(n, scenario="yield_standoff", tier=3, teacher="expert")
+    batch = BatchVecEnv(n, scenario="yield_standoff", tier=3, base_url=env_server, teacher="expert")
+    try:
+        assert native.observation_space == batch.observation_space and native.actions == batch.actions
+        same_first_reset(native, batch, 21)
+        actions = np.random.default_rng(3).integers(0, 10, size=(80, n))
+        ends = 0
+        for step in actions:
+            ends += same_vector_step(native.step(step), batch.step(step))
+            assert native.reset_infos == batch.reset_infos
+            assert np.array_equal(native.teacher_actions, batch.teacher_actions)
+        assert ends >= 2 * n
+    finally:
+        native.close()
+        batch.close()
+    closed = NativeBatchVecEnv(1)
+    closed.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        closed.reset()

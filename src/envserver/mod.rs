@@ -43,6 +43,7 @@
 //! never takes over a live one. `--token-var` requires a bearer token.
 
 mod http;
+mod inprocess;
 mod mcp;
 mod net;
 mod request;
@@ -50,6 +51,8 @@ mod schema;
 mod session;
 mod wire;
 mod ws;
+
+pub use inprocess::InProcessBatch;
 
 use axum::Router;
 use axum::body::Bytes;

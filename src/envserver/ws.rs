@@ -101,7 +101,7 @@ enum Sessions {
 }
 
 /// What one WebSocket message does to its session.
-enum WsReply {
+pub(super) enum WsReply {
     Send(Value),
     /// An answer already serialised (observations and states, written
     /// straight from their types: no intermediate JSON tree per step).
@@ -185,13 +185,13 @@ fn session_message(state: &EnvServerState, session: &mut Session, message: &Valu
 /// The sessions of a `/ws/batch` connection, opened as their index is
 /// first used, each holding its place under `--max-sessions`.
 #[derive(Default)]
-struct Batch {
+pub(super) struct Batch {
     sessions: Vec<Option<(Session, super::Slot)>>,
 }
 
 impl Batch {
     /// Handle one text message of a batch connection.
-    fn message(&mut self, state: &Arc<EnvServerState>, text: &str) -> WsReply {
+    pub(super) fn message(&mut self, state: &Arc<EnvServerState>, text: &str) -> WsReply {
         let message: Value = match serde_json::from_str(text) {
             Ok(m) => m,
             Err(e) => return WsReply::Send(ws_error("INVALID_JSON", format!("Invalid JSON: {e}"))),

@@ -89,16 +89,18 @@ class Endpoint:
     """The env-server an environment plays on: the one at `base_url`, or
     one started here (the binary on `PATH` or named by `NEGOTIATOR_BIN`)
     and stopped by `close()`; with its feature layout and action list from
-    `/metadata`, and the spaces they make."""
+    `/metadata`, and the spaces they make. `meta` given (the in-process
+    sessions' own document), no server is reached or started."""
 
-    def __init__(self, base_url: str | None, token: str | None) -> None:
+    def __init__(self, base_url: str | None, token: str | None, meta: dict[str, Any] | None = None) -> None:
         self._local: LocalServer | None = None
-        if base_url is None:
+        if base_url is None and meta is None:
             self._local = LocalServer(binary())
             base_url = self._local.url
-        self.base_url = base_url.rstrip("/")
+        self.base_url = (base_url or "").rstrip("/")
         self.headers = bearer_headers(token)
-        meta = fetch_metadata(self.base_url, self.headers)
+        if meta is None:
+            meta = fetch_metadata(self.base_url, self.headers)
         self.feature_names: list[str] = list(meta["feature_names"])
         self.actions: list[dict[str, Any]] = list(meta["discrete_actions"])
         self.teachers: list[str] = list(meta["teachers"])

@@ -53,6 +53,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--out", required=True, type=Path)
     p.add_argument("--base-url", help="an env-server to train on (default: start a local one)")
     p.add_argument("--envs", type=int, default=8, help="environments stepped together (sessions of one env-server batch connection, at most 64)")
+    p.add_argument(
+        "--native",
+        action="store_true",
+        help="step the training environments in this process (NativeBatchVecEnv; pip install ./python/native)",
+    )
     p.add_argument("--curve-points", type=int, default=20, help="evaluations along the run")
     p.add_argument("--curve-episodes", type=int, default=100, help="held-out episodes per evaluation")
     p.add_argument("--ent-coef", type=float, default=0.01, help="PPO's entropy bonus (exploration)")
@@ -81,7 +86,7 @@ def train(args: argparse.Namespace, base_url: str) -> None:
     from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecNormalize
     from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
-    from negotiator_gym.vec import BatchVecEnv
+    from negotiator_gym.vec import BatchVecEnv, NativeBatchVecEnv
 
     # A network this small gains nothing from threads; one keeps the run on
     # its own core (and several runs side by side).
@@ -112,7 +117,10 @@ def train(args: argparse.Namespace, base_url: str) -> None:
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
 
-    batch = BatchVecEnv(args.envs, scenario=args.scenario, tier=args.tier, base_url=base_url, teacher=args.warm_start)
+    if args.native:
+        batch: BatchVecEnv = NativeBatchVecEnv(args.envs, scenario=args.scenario, tier=args.tier, teacher=args.warm_start)
+    else:
+        batch = BatchVecEnv(args.envs, scenario=args.scenario, tier=args.tier, base_url=base_url, teacher=args.warm_start)
     timed = Timed(batch)
     venv = VecNormalize(timed, norm_obs=True, norm_reward=False)
     venv.seed(2**40 + args.seed * 1000)

@@ -3,6 +3,9 @@
 - `BatchVecEnv` (what `negotiator_gym.train` uses): environments of one
   cell as the sessions of a single env-server `/ws/batch` connection, one
   message each way per vector step.
+- `NativeBatchVecEnv`: `BatchVecEnv` with env-server's batch sessions in
+  this process (the optional `negotiator-native` extension, `pip install
+  ./python/native`): the same messages and answers, no socket.
 - `PipelinedVecEnv`: stable-baselines3's `DummyVecEnv` over several
   `NegotiatorEnv`s (one env-server session each, so each may be a
   different cell) that sends every environment's action before it reads
@@ -15,7 +18,8 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from types import ModuleType
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -77,6 +81,17 @@ class PipelinedVecEnv(DummyVecEnv):
         return (self._obs_from_buf(), np.copy(self.buf_rews), np.copy(self.buf_dones), list(self.buf_infos))
 
 
+class Transport(Protocol):
+    """Where `BatchVecEnv`'s messages go: a `/ws/batch` connection, or
+    the same sessions in-process."""
+
+    def send(self, text: str) -> None: ...
+
+    def recv(self) -> bytes | str: ...
+
+    def close(self) -> None: ...
+
+
 class BatchVecEnv(VecEnv):
     """`num_envs` environments of one cell (scenario, tier) over a single
     `/ws/batch` connection: each vector step is one message each way, the
@@ -114,17 +129,24 @@ class BatchVecEnv(VecEnv):
         self.render_mode = None
         self.teacher = teacher
         self.teacher_actions = np.zeros(num_envs, dtype=np.int64)
-        self._endpoint = Endpoint(base_url, token)
+        self._endpoint = self._make_endpoint(base_url, token)
         self._endpoint.check_teacher(teacher)
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions
         super().__init__(num_envs, self._endpoint.observation_space, self._endpoint.action_space)
-        self._ws: Session | None = self._endpoint.connect("/ws/batch")
+        self._ws: Transport | None = self._connect()
         # Each environment's generator, as `NegotiatorEnv.np_random`.
         self._rngs: list[np.random.Generator | None] = [None] * num_envs
         self.episode_seeds: list[int | None] = [None] * num_envs
         self._obs = np.zeros((num_envs, len(self.feature_names)), dtype=np.float32)
         self._actions: np.ndarray | None = None
+
+    def _make_endpoint(self, base_url: str | None, token: str | None) -> Endpoint:
+        return Endpoint(base_url, token)
+
+    def _connect(self) -> Transport:
+        session: Session = self._endpoint.connect("/ws/batch")
+        return session
 
     def _reset_entry(self, i: int, seed: int | None) -> str:
         """Environment i's reset message, its seed taken as
@@ -226,3 +248,60 @@ class BatchVecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
+
+
+class _InProcess:
+    """The `Transport` of `NativeBatchVecEnv`: each message handed to the
+    in-process sessions, whose answer the next `recv` returns."""
+
+    def __init__(self, batch: Any) -> None:
+        self._batch = batch
+        self._answer: str | None = None
+
+    def send(self, text: str) -> None:
+        self._answer = self._batch.message(text)
+
+    def recv(self) -> str:
+        if self._answer is None:
+            raise EnvServerError("no answer: the in-process sessions are closed")
+        answer, self._answer = self._answer, None
+        return answer
+
+    def close(self) -> None:
+        self._batch.message('{"type":"close"}')
+
+
+def _native() -> ModuleType:
+    try:
+        import negotiator_native
+    except ImportError as e:
+        raise ImportError(
+            "NativeBatchVecEnv needs the negotiator-native extension: pip install ./python/native "
+            "(a Rust toolchain builds it)"
+        ) from e
+    return negotiator_native
+
+
+class NativeBatchVecEnv(BatchVecEnv):
+    """`BatchVecEnv` over env-server's batch sessions held in this process
+    (`negotiator::InProcessBatch` through PyO3) instead of a `/ws/batch`
+    connection: the same JSON messages and answers, so the same episodes
+    (a test holds them equal), without a socket, a server process or a
+    thread wake-up per step. Needs `pip install ./python/native`."""
+
+    def __init__(
+        self,
+        num_envs: int,
+        scenario: str = "yield_standoff",
+        tier: int = 1,
+        teacher: str | None = None,
+    ) -> None:
+        self._module = _native()
+        self._meta: dict[str, Any] = orjson.loads(self._module.metadata())
+        super().__init__(num_envs, scenario=scenario, tier=tier, teacher=teacher)
+
+    def _make_endpoint(self, base_url: str | None, token: str | None) -> Endpoint:
+        return Endpoint(None, None, meta=self._meta)
+
+    def _connect(self) -> Transport:
+        return _InProcess(self._module.Batch())
