@@ -7,6 +7,7 @@
 # python3) and the built binary (cargo build --release).
 # WARM_START=expert trains every cell from a DAgger warm start on that
 # built-in policy (train.py's --warm-start) into results/rl/warm-start-expert/.
+# TRAIN_ARGS (e.g. --native) are added to every train.py command.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 steps=${1:-400000}
@@ -24,7 +25,7 @@ done
 train_cell() { # scenario tier
   mkdir -p "$out/$1-t$2"
   "$python" -m negotiator_gym.train --scenario "$1" --tier "$2" --steps "$steps" --seed 0 \
-    ${warm:+--warm-start "$warm"} --out "$out/$1-t$2" >"$out/$1-t$2/train.log" 2>&1
+    ${warm:+--warm-start "$warm"} ${TRAIN_ARGS:-} --out "$out/$1-t$2" >"$out/$1-t$2/train.log" 2>&1
   "$python" -m negotiator_gym.hack_check --checkpoint "$out/$1-t$2" --scenario "$1" --tier "$2" \
     --seed 0 -n "$n" --json >"$out/$1-t$2/hack_check.json" || true
   echo "$1 tier $2: $(tail -1 "$out/$1-t$2/train.log")"
