@@ -273,6 +273,12 @@ impl Episode {
         self.twin = None;
     }
 
+    /// Privileged: how the road users have moved so far (`validate`'s
+    /// "road users move as people" line).
+    pub fn road_user_motion(&self) -> crate::scenario::world::Motion {
+        self.world.motion()
+    }
+
     /// Privileged: evidence and commitment so far.
     pub fn timing(&self) -> EvidenceTiming {
         self.timing

@@ -19,7 +19,9 @@ pub struct ServeArgs {
     /// The scripted model. expert_late is the expert reading the scene one
     /// decision late (from the conversation's earlier scenes);
     /// expert_cautious and expert_hedge drive the expert's rules with
-    /// caution while unsure.
+    /// caution while unsure; the hedging readers brake gently from the
+    /// first decision for 2.5 s, then read on time, a decision late, or a
+    /// decision late with a first go that holds speed.
     #[arg(long, value_parser = policy_parser())]
     pub policy: PolicyKind,
     /// Delay added to every answered request (ms).

@@ -5,7 +5,10 @@ mod expert;
 pub(crate) mod reply;
 mod simple;
 
-pub use expert::{CueFollower, Expert, ExpertCautious, ExpertHedge, ExpertLate, MODERATE_FRACTION};
+pub use expert::{
+    CueFollower, Expert, ExpertCautious, ExpertHedge, ExpertLate, HEDGE_BRAKE_MPS2, HEDGE_SECONDS, Hedging,
+    HedgingReader, MODERATE_FRACTION,
+};
 pub use simple::{AlwaysProceed, AlwaysStop, Cautious, RandomPolicy};
 
 use crate::action::{Action, Maneuver};
@@ -49,10 +52,13 @@ pub enum PolicyKind {
     ExpertLate,
     ExpertCautious,
     ExpertHedge,
+    HedgingReader,
+    HedgingReaderLate,
+    HedgingReaderSoft,
 }
 
 impl PolicyKind {
-    pub const ALL: [PolicyKind; 9] = [
+    pub const ALL: [PolicyKind; 12] = [
         PolicyKind::Expert,
         PolicyKind::AlwaysProceed,
         PolicyKind::AlwaysStop,
@@ -62,10 +68,20 @@ impl PolicyKind {
         PolicyKind::ExpertLate,
         PolicyKind::ExpertCautious,
         PolicyKind::ExpertHedge,
+        PolicyKind::HedgingReader,
+        PolicyKind::HedgingReaderLate,
+        PolicyKind::HedgingReaderSoft,
     ];
     /// The expert's rules driven with caution while unsure (`validate`'s
     /// "caution is not punished" line).
     pub const CAUTIOUS_READERS: [PolicyKind; 2] = [PolicyKind::ExpertCautious, PolicyKind::ExpertHedge];
+    /// The way people hedge: braking gently from the first decision until
+    /// the evidence could have come, then the expert's rules on time, a
+    /// decision late, and a decision late with a first go that holds speed
+    /// (`validate`'s "hedging readers win" line, on the intersection and
+    /// the crosswalk).
+    pub const HEDGING_READERS: [PolicyKind; 3] =
+        [PolicyKind::HedgingReader, PolicyKind::HedgingReaderLate, PolicyKind::HedgingReaderSoft];
     /// Policies that ignore the state entirely (the anti-gaming invariant).
     pub const STATE_IGNORANT: [PolicyKind; 4] =
         [PolicyKind::AlwaysProceed, PolicyKind::AlwaysStop, PolicyKind::Cautious, PolicyKind::Random];
@@ -83,6 +99,9 @@ impl PolicyKind {
             PolicyKind::ExpertLate => "expert_late",
             PolicyKind::ExpertCautious => "expert_cautious",
             PolicyKind::ExpertHedge => "expert_hedge",
+            PolicyKind::HedgingReader => "hedging_reader",
+            PolicyKind::HedgingReaderLate => "hedging_reader_late",
+            PolicyKind::HedgingReaderSoft => "hedging_reader_soft",
         }
     }
 
@@ -97,6 +116,9 @@ impl PolicyKind {
             PolicyKind::ExpertLate => Box::new(ExpertLate::new(1)),
             PolicyKind::ExpertCautious => Box::new(ExpertCautious),
             PolicyKind::ExpertHedge => Box::new(ExpertHedge),
+            PolicyKind::HedgingReader => Box::new(Hedging::on_time(HEDGE_BRAKE_MPS2, HEDGE_SECONDS).build()),
+            PolicyKind::HedgingReaderLate => Box::new(Hedging::late(HEDGE_BRAKE_MPS2, HEDGE_SECONDS).build()),
+            PolicyKind::HedgingReaderSoft => Box::new(Hedging::late_soft(HEDGE_BRAKE_MPS2, HEDGE_SECONDS).build()),
         }
     }
 }
@@ -109,7 +131,7 @@ impl fmt::Display for PolicyKind {
 
 #[derive(Debug, thiserror::Error)]
 #[error(
-    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower, expert_late, expert_cautious or expert_hedge)"
+    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower, expert_late, expert_cautious, expert_hedge, hedging_reader, hedging_reader_late or hedging_reader_soft)"
 )]
 pub struct UnknownPolicy(String);
 

@@ -91,7 +91,7 @@
 //! starting at x = 0. The ego's lateral position is derived from its
 //! progress, as a merge assist would steer it.
 
-use super::world::{Contact, EgoApproach, History, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
+use super::world::{Contact, EgoApproach, History, Motion, Patience, PlanPoint, ROW_MARGIN_S, World, car_box};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
 use super::{Sample, ScenarioKind, Scene};
@@ -378,6 +378,7 @@ pub struct MergeWorld {
     readings: Vec<NoisyReading>,
     lane_history: History,
     follower_history: History,
+    motion: Motion,
 }
 
 impl MergeWorld {
@@ -431,6 +432,7 @@ impl MergeWorld {
             readings: Vec::new(),
             lane_history,
             follower_history,
+            motion: Motion::default(),
         }
     }
 
@@ -511,6 +513,28 @@ impl MergeWorld {
             leader,
         );
         want.min(safe).clamp(-self.params.idm.max_brake, p.door_accel_mps2)
+    }
+
+    /// Record how the lane cars move this step: their speed, and any
+    /// braking of the follower on an open road (it has passed the ego, and
+    /// it is closing on nothing: the lane car ahead is no slower, or
+    /// farther than the lane's desired gap, as IDM states it). The lane
+    /// car's own braking is its disposition's (making room, covering an
+    /// ego, the bluff): it brakes for the ego.
+    fn track_motion(&mut self, ego: &Body, a_follow: f64) {
+        let idm = self.params.idm;
+        for car in [self.lane_car, self.follower] {
+            let fastest = self.motion.fastest_car_mps.map_or(car.v, |f| f.max(car.v));
+            self.motion.fastest_car_mps = Some(fastest);
+        }
+        let follower = self.follower;
+        let passed_ego = follower.s - CAR_LENGTH > ego.s;
+        let open = self
+            .leader(&follower, Some(&self.lane_car), ego)
+            .is_none_or(|(gap, closing)| closing <= 0.0 || gap > idm.min_gap + follower.v * idm.headway);
+        if passed_ego && open {
+            self.motion.open_road_brake_mps2 = self.motion.open_road_brake_mps2.max(-a_follow);
+        }
     }
 
     /// Whether the ego brakes hard close to the merge point: to a car that
@@ -717,8 +741,13 @@ impl World for MergeWorld {
         let a_shadow = self.hold_accel(self.shadow, ego, dt);
         self.shadow.advance(a_shadow, dt);
         let a_follow = self.follower_accel(a_lane, ego);
+        self.track_motion(ego, a_follow);
         self.lane_car.advance(a_lane, dt);
         self.follower.advance(a_follow, dt);
+    }
+
+    fn motion(&self) -> Motion {
+        self.motion
     }
 
     fn contact(&self, ego: &Body) -> Contact {

@@ -83,7 +83,7 @@
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
 //! lateral from the near kerb: `lat = y + 1.75`.
 
-use super::world::{Contact, EgoApproach, History, PlanPoint, World, car_box, crossing_ttc};
+use super::world::{Contact, EgoApproach, History, Motion, PlanPoint, World, car_box, crossing_ttc};
 use super::{Common, Disposition, FieldCheck, Range, ScenarioError, Tier};
 use super::{PlanAxes, RoadUser, ScenarioDef, TrackLabel};
 use super::{Sample, ScenarioKind, Scene};
@@ -371,6 +371,7 @@ pub struct PedestrianWorld {
     turns_taken: u32,
     revealed: bool,
     history: History,
+    motion: Motion,
 }
 
 impl PedestrianWorld {
@@ -450,6 +451,7 @@ impl PedestrianWorld {
             turns_taken: 0,
             revealed: false,
             history: History::steady(Sample { position_m: lat, velocity_mps: vel }, vel),
+            motion: Motion::default(),
         }
     }
 
@@ -585,7 +587,15 @@ impl World for PedestrianWorld {
                 if self.lat >= FAR_KERB + 1.0 { 0.0 } else { speed }
             }
         };
+        if let Phase::Cross { speed, .. } = self.phase {
+            let slowest = self.motion.slowest_crossing_mps.map_or(speed, |s| s.min(speed));
+            self.motion.slowest_crossing_mps = Some(slowest);
+        }
         self.walk_toward(target, accel, dt);
+    }
+
+    fn motion(&self) -> Motion {
+        self.motion
     }
 
     fn contact(&self, ego: &Body) -> Contact {

@@ -78,6 +78,42 @@ pub trait World {
     fn turns_taken(&self) -> u32 {
         0
     }
+    /// Privileged: how the road users have moved so far, for `validate`'s
+    /// "road users move as people" line (each figure beside its published
+    /// range).
+    fn motion(&self) -> Motion {
+        Motion::default()
+    }
+}
+
+/// How a world's road users have moved in one episode: the figures that
+/// published ranges of human motion bound.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct Motion {
+    /// The slowest pace (m/s) a pedestrian set out across the road at.
+    pub slowest_crossing_mps: Option<f64>,
+    /// The hardest a car braked (m/s^2) on an open road: ahead of the ego,
+    /// with nothing ahead of it nearer than its own desired gap.
+    pub open_road_brake_mps2: f64,
+    /// The fastest a car other than the ego drove (m/s), against the speed
+    /// limit the scene states.
+    pub fastest_car_mps: Option<f64>,
+}
+
+impl Motion {
+    /// The figures of two stretches together (the slowest of the slowest,
+    /// the hardest, the fastest).
+    pub fn merge(self, other: Motion) -> Motion {
+        let pick = |a: Option<f64>, b: Option<f64>, f: fn(f64, f64) -> f64| match (a, b) {
+            (Some(x), Some(y)) => Some(f(x, y)),
+            (x, y) => x.or(y),
+        };
+        Motion {
+            slowest_crossing_mps: pick(self.slowest_crossing_mps, other.slowest_crossing_mps, f64::min),
+            open_road_brake_mps2: self.open_road_brake_mps2.max(other.open_road_brake_mps2),
+            fastest_car_mps: pick(self.fastest_car_mps, other.fastest_car_mps, f64::max),
+        }
+    }
 }
 
 /// Time margin for a right-of-way violation.

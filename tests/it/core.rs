@@ -1048,3 +1048,99 @@ fn learned_adversary_catches_an_outwaited_feinter_that_clears_in_time() {
     assert!(!planted.pass, "{}", planted.figure);
     assert!(planted.figure.contains("pedestrian_feint/t1"), "{}", planted.figure);
 }
+
+/// The hedging readers at the built-in level (1.5 m/s^2 for 2.5 s), on
+/// seeds `validate` does not use: the one that reads on time holds the
+/// caution bar on every intersection cell and the crosswalk's first two
+/// tiers, where its hedge ends no earlier than the evidence.
+#[test]
+fn the_on_time_hedging_reader_holds_the_bar_where_its_hedge_ends_by_the_evidence() {
+    let set = ScenarioSet::default();
+    let cells: Vec<(ScenarioKind, Tier)> = Tier::ALL
+        .iter()
+        .map(|&t| (ScenarioKind::YieldStandoff, t))
+        .chain([(ScenarioKind::PedestrianFeint, Tier::T1), (ScenarioKind::PedestrianFeint, Tier::T2)])
+        .collect();
+    for (kind, tier) in cells {
+        let spec = GridSpec {
+            scenarios: vec![kind],
+            tiers: vec![tier],
+            policies: vec![PolicyKind::HedgingReader],
+            episodes: 200,
+            seed_base: 50_000,
+        };
+        let cell = &run_grid(&set, &spec, &|_, _| {})[0];
+        assert!(
+            cell.success.estimate >= validate::CAUTIOUS_SUCCESS
+                && cell.collision.estimate <= validate::CAUTIOUS_COLLISION,
+            "{kind}/t{tier}: success {} collision {}",
+            cell.success.estimate,
+            cell.collision.estimate
+        );
+    }
+}
+
+/// The hedging line catches a road user that decides at the evidence: a
+/// crosswalk feinter that takes its gap the moment it has stopped at the
+/// kerb (no look) beats the on-time hedging reader on tier 1, which holds
+/// the bar against the built-in feinter.
+#[test]
+fn the_hedging_line_catches_a_feinter_that_decides_at_the_evidence() {
+    let seeds = 60_000..60_200;
+    let tried = |set: &ScenarioSet| {
+        let cells = validate::hedging_readers(set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], seeds.clone());
+        let on_time = negotiator::policy::Hedging::on_time(1.5, 2.5).to_string();
+        cells.into_iter().find(|c| c.driver == on_time).expect("the on-time reader at 1.5 m/s^2 for 2.5 s is tried")
+    };
+    let honest = tried(&ScenarioSet::default());
+    assert!(honest.success >= validate::CAUTIOUS_SUCCESS, "{honest:?}");
+    let set = planted_set(
+        include_str!("../../scenarios/pedestrian_feint.toml"),
+        &[("look_s = [0.5, 1.0]", "look_s = [0.0, 0.0]")],
+    );
+    let planted = tried(&set);
+    assert!(planted.success < validate::CAUTIOUS_SUCCESS, "{planted:?}");
+    let check = validate::check_hedging(&[planted]);
+    assert!(!check.pass && check.figure.contains("1 of 1 drivers below a bar"), "{}", check.figure);
+}
+
+/// The realism line reads the road users' motion: a crosswalk whose
+/// feinter crosses at 0.9-1.0 m/s meets the walking-speed bar, and the
+/// planted 0.5 m/s crossing is printed outside it.
+#[test]
+fn the_motion_line_catches_a_crossing_slower_than_people_walk() {
+    let crossing = |set: &ScenarioSet| {
+        let cells = validate::road_user_motion(set, &[ScenarioKind::PedestrianFeint], &Tier::ALL, 0..40);
+        let check = validate::check_motion(&cells);
+        let slowest = cells.iter().filter_map(|c| c.motion.slowest_crossing_mps).fold(f64::INFINITY, f64::min);
+        (slowest, check)
+    };
+    let builtin = include_str!("../../scenarios/pedestrian_feint.toml");
+    let walking = planted_set(builtin, &[("give_up_speed_mps = [0.5, 0.6]", "give_up_speed_mps = [0.9, 1.0]")]);
+    let (slowest, check) = crossing(&walking);
+    assert!(slowest >= validate::SLOWEST_CROSSING_MPS, "{}", check.figure);
+    assert!(check.pass, "{}", check.figure);
+    let planted = planted_set(builtin, &[("give_up_speed_mps = [0.5, 0.6]", "give_up_speed_mps = [0.5, 0.5]")]);
+    let (slowest, check) = crossing(&planted);
+    assert!((slowest - 0.5).abs() < 1e-9, "{slowest}");
+    assert!(!check.pass && check.figure.contains("slowest crossing 0.50 m/s"), "{}", check.figure);
+}
+
+/// The giving-way line counts the decisions a driver that gives way has to
+/// spare: with the crosswalk's budget cut by three decisions, the expert
+/// that gives way to a crosser no longer keeps two.
+#[test]
+fn the_giving_way_line_catches_a_budget_that_leaves_no_time() {
+    let share = |set: &ScenarioSet| {
+        let cells = validate::give_way_time(set, &[ScenarioKind::PedestrianFeint], &[Tier::T3], 0..200);
+        (validate::check_give_way_time(&cells), cells[0].spare_share)
+    };
+    let (honest, _) = share(&ScenarioSet::default());
+    assert!(honest.pass, "{}", honest.figure);
+    let set = planted_set(
+        include_str!("../../scenarios/pedestrian_feint.toml"),
+        &[("turn_budget = [22, 22, 21]", "turn_budget = [22, 22, 18]")],
+    );
+    let (planted, spare) = share(&set);
+    assert!(!planted.pass && spare < validate::GIVE_WAY_SPARE_SHARE, "{}", planted.figure);
+}

@@ -11,6 +11,7 @@
 //! only the public `Scene`, never a world.
 
 mod contested_merge;
+mod hedging;
 mod pedestrian_feint;
 mod yield_standoff;
 
@@ -18,6 +19,7 @@ use super::Policy;
 use crate::action::{Action, Maneuver};
 use crate::observation::{Observation, Scene};
 use crate::scenario::ScenarioKind;
+pub use hedging::{HEDGE_BRAKE_MPS2, HEDGE_SECONDS, Hedging, HedgingReader};
 
 /// One scenario's rules, each reading only its public scene and the ego's
 /// speed (and, for the expert, its last action). Each scenario's file
