@@ -153,6 +153,9 @@ const DENY_LEVEL_GAIN: f64 = 0.5;
 const DOOR_HEADWAY_S: f64 = 0.1;
 /// ... tracking its gap and the lane car's speed with these gains (1/s^2,
 /// 1/s: critically damped).
+/// A car above its desired speed with nothing to brake for slows this
+/// gently (m/s^2): lifting off the accelerator.
+const LIFT_OFF_MPS2: f64 = 0.5;
 const DOOR_GAP_GAIN: f64 = 1.0;
 const DOOR_SPEED_GAIN: f64 = 2.0;
 /// A tier-3 bluffer has shown its bait once it has eased off this much
@@ -501,7 +504,13 @@ impl MergeWorld {
                 min_gap: p.follower_min_gap_m,
                 ..self.params.idm
             };
-            return idm.accel(follower.v, self.cruise, leader);
+            // Closing on nothing (the car ahead no slower, and not nearer
+            // than its minimum gap), a driver above its cruise or nearer
+            // than its headway lifts off the accelerator rather than brakes
+            // (IDM alone would brake it at up to `max_brake`).
+            let a = idm.accel(follower.v, self.cruise, leader);
+            let closing_on_nothing = leader.is_none_or(|(gap, closing)| closing <= 0.0 && gap > idm.min_gap);
+            return if closing_on_nothing { a.max(-LIFT_OFF_MPS2) } else { a };
         }
         let gap = lane.s - follower.s - CAR_LENGTH;
         let want = a_lane

@@ -1144,3 +1144,19 @@ fn the_giving_way_line_catches_a_budget_that_leaves_no_time() {
     let (planted, spare) = share(&set);
     assert!(!planted.pass && spare < validate::GIVE_WAY_SPARE_SHARE, "{}", planted.figure);
 }
+
+/// No car brakes on an open road: over every built-in policy on every
+/// merge tier, on seeds `validate` does not use, the follower that has
+/// passed the ego and is closing on nothing slows no harder than lifting
+/// off the accelerator (it once braked at up to 4 m/s^2 back to its
+/// cruise after closing the door).
+#[test]
+fn the_merge_follower_lifts_off_rather_than_brakes_on_an_open_road() {
+    let set = ScenarioSet::default();
+    let cells = validate::road_user_motion(&set, &[ScenarioKind::ContestedMerge], &Tier::ALL, 7000..7060);
+    for c in &cells {
+        let a = c.motion.open_road_brake_mps2;
+        assert!(a <= validate::OPEN_ROAD_BRAKE_MPS2 + 1e-9, "{}/t{}: {a}", c.scenario, c.tier);
+    }
+    assert!(cells.iter().any(|c| c.motion.open_road_brake_mps2 > 0.0), "the follower never lifted off");
+}
