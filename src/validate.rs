@@ -94,6 +94,11 @@ fn cell_keys(cells: &[CellSummary]) -> Vec<(ScenarioKind, Tier)> {
     keys
 }
 
+/// Every (scenario, tier) cell of `scenarios` by `tiers`, in that order.
+fn cells_of(scenarios: &[ScenarioKind], tiers: &[Tier]) -> Vec<(ScenarioKind, Tier)> {
+    scenarios.iter().flat_map(|&s| tiers.iter().map(move |&t| (s, t))).collect()
+}
+
 fn label(s: ScenarioKind, t: Tier) -> String {
     format!("{s}/t{t}")
 }
@@ -447,12 +452,7 @@ pub fn late_readers(
     tiers: &[Tier],
     seeds: std::ops::Range<u64>,
 ) -> Vec<LateCell> {
-    let mut keys = Vec::new();
-    for &s in scenarios {
-        for &t in tiers {
-            keys.push((s, t));
-        }
-    }
+    let keys = cells_of(scenarios, tiers);
     crate::par::par_map(&keys, |&(scenario, tier)| {
         let config = set.get(scenario);
         // Per seed, whether the expert succeeds at each delay 0 ..= MAX_SLACK_LAG.
@@ -544,7 +544,7 @@ pub fn road_user_motion(
     tiers: &[Tier],
     seeds: std::ops::Range<u64>,
 ) -> Vec<MotionCell> {
-    let keys: Vec<(ScenarioKind, Tier)> = scenarios.iter().flat_map(|&s| tiers.iter().map(move |&t| (s, t))).collect();
+    let keys = cells_of(scenarios, tiers);
     crate::par::par_map(&keys, |&(scenario, tier)| {
         let config = set.get(scenario);
         let mut motion = crate::scenario::world::Motion::default();
@@ -756,7 +756,7 @@ pub fn give_way_time(
     tiers: &[Tier],
     seeds: std::ops::Range<u64>,
 ) -> Vec<GiveWayCell> {
-    let keys: Vec<(ScenarioKind, Tier)> = scenarios.iter().flat_map(|&s| tiers.iter().map(move |&t| (s, t))).collect();
+    let keys = cells_of(scenarios, tiers);
     crate::par::par_map(&keys, |&(scenario, tier)| {
         let config = set.get(scenario);
         let budget = config.common().turn_budget.get(tier);
@@ -834,7 +834,7 @@ pub fn learned_adversaries(
     seeds: std::ops::Range<u64>,
     spec: LearnSpec,
 ) -> Vec<LearnedCell> {
-    let keys: Vec<(ScenarioKind, Tier)> = scenarios.iter().flat_map(|&s| tiers.iter().map(move |&t| (s, t))).collect();
+    let keys = cells_of(scenarios, tiers);
     let held: Vec<u64> = seeds.collect();
     crate::par::par_map(&keys, |&(scenario, tier)| {
         let config = set.get(scenario);
