@@ -1160,3 +1160,55 @@ fn the_merge_follower_lifts_off_rather_than_brakes_on_an_open_road() {
     }
     assert!(cells.iter().any(|c| c.motion.open_road_brake_mps2 > 0.0), "the follower never lifted off");
 }
+
+/// No waiting road user steps into a car that can no longer stop, under
+/// the drivers the hedging line tries (every braking level and duration)
+/// and under random egos that brake, hold and surge, on every cell, on
+/// seeds `validate` does not use.
+#[test]
+fn hedging_and_random_egos_meet_no_road_user_stepping_into_a_car_that_cannot_stop() {
+    use negotiator::episode::run_episode;
+    use negotiator::policy::Policy;
+    /// Each decision: brake (gently to hard), hold speed, or surge, drawn
+    /// from a seeded stream.
+    struct BrakeHoldSurge(u64);
+    impl Policy for BrakeHoldSurge {
+        fn reset(&mut self, seed: u64) {
+            self.0 = seed | 1;
+        }
+        fn act(&mut self, _obs: &Observation) -> Action {
+            // xorshift64: the test's own reproducible randomness.
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            let strength = (self.0 >> 11) as f64 / (1u64 << 53) as f64;
+            match self.0 % 4 {
+                0 => Action::new(Maneuver::Yield, strength),
+                1 => Action::hold(),
+                2 => Action::proceed_at(3.0 * strength),
+                _ => Action::new(Maneuver::Stop, strength),
+            }
+        }
+    }
+    let set = ScenarioSet::default();
+    let mut episodes = 0;
+    for kind in ScenarioKind::ALL {
+        for tier in Tier::ALL {
+            let config = set.get(kind);
+            let mut drivers: Vec<Box<dyn Policy>> = validate::hedging_drivers(kind, 3.5)
+                .into_iter()
+                .step_by(5)
+                .map(|h| Box::new(h.build()) as Box<dyn Policy>)
+                .collect();
+            drivers.push(Box::new(BrakeHoldSurge(1)));
+            for driver in &mut drivers {
+                for seed in 9000..9040 {
+                    let r = run_episode(config, tier, seed, driver.as_mut());
+                    episodes += 1;
+                    assert_eq!(r.grades.diagnostics.unstoppable_turns_taken, 0, "{kind}/t{tier} seed {seed}");
+                }
+            }
+        }
+    }
+    assert!(episodes > 1000, "{episodes}");
+}
