@@ -75,13 +75,6 @@ impl PolicyKind {
     /// The expert's rules driven with caution while unsure (`validate`'s
     /// "caution is not punished" line).
     pub const CAUTIOUS_READERS: [PolicyKind; 2] = [PolicyKind::ExpertCautious, PolicyKind::ExpertHedge];
-    /// The way people hedge: braking gently from the first decision until
-    /// the evidence could have come, then the expert's rules on time, a
-    /// decision late, and a decision late with a first go that holds speed
-    /// (`validate`'s "hedging readers win" line, on the intersection and
-    /// the crosswalk).
-    pub const HEDGING_READERS: [PolicyKind; 3] =
-        [PolicyKind::HedgingReader, PolicyKind::HedgingReaderLate, PolicyKind::HedgingReaderSoft];
     /// Policies that ignore the state entirely (the anti-gaming invariant).
     pub const STATE_IGNORANT: [PolicyKind; 4] =
         [PolicyKind::AlwaysProceed, PolicyKind::AlwaysStop, PolicyKind::Cautious, PolicyKind::Random];

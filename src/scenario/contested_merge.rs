@@ -149,13 +149,13 @@ const EASE_BACK_MPS2: f64 = 1.0;
 /// A car holding the lane closes on level with an ego alongside at this
 /// rate (1/s): it keeps the ego boxed in while the ego drives faster.
 const DENY_LEVEL_GAIN: f64 = 0.5;
+/// A car above its desired speed with nothing to brake for slows this
+/// gently (m/s^2): lifting off the accelerator.
+const LIFT_OFF_MPS2: f64 = 0.5;
 /// A follower closing the door on an ego keeps this time headway (s) ...
 const DOOR_HEADWAY_S: f64 = 0.1;
 /// ... tracking its gap and the lane car's speed with these gains (1/s^2,
 /// 1/s: critically damped).
-/// A car above its desired speed with nothing to brake for slows this
-/// gently (m/s^2): lifting off the accelerator.
-const LIFT_OFF_MPS2: f64 = 0.5;
 const DOOR_GAP_GAIN: f64 = 1.0;
 const DOOR_SPEED_GAIN: f64 = 2.0;
 /// A tier-3 bluffer has shown its bait once it has eased off this much
