@@ -8,6 +8,8 @@
 # WARM_START=expert trains every cell from a DAgger warm start on that
 # built-in policy (train.py's --warm-start) into results/rl/warm-start-expert/.
 # TRAIN_ARGS (e.g. --native) are added to every train.py command.
+# SCENARIOS (default all three) retrains only those scenarios' cells, e.g.
+# after a change to one world; summary.json still lists every cell.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 steps=${1:-400000}
@@ -19,7 +21,7 @@ warm=${WARM_START:-}
 out=results/rl${warm:+/warm-start-$warm}
 mkdir -p "$out"
 cells=()
-for s in yield_standoff pedestrian_feint contested_merge; do
+for s in ${SCENARIOS:-yield_standoff pedestrian_feint contested_merge}; do
   for t in 1 2 3; do cells+=("$s $t"); done
 done
 train_cell() { # scenario tier

@@ -279,6 +279,12 @@ impl Episode {
         self.world.motion()
     }
 
+    /// The speed limit that binds the ego where it is now: the world's
+    /// (the merge's through lane) or the episode's.
+    fn ego_speed_limit(&self) -> f64 {
+        self.world.ego_speed_limit(&self.ego).unwrap_or(self.speed_limit)
+    }
+
     /// Privileged: evidence and commitment so far.
     pub fn timing(&self) -> EvidenceTiming {
         self.timing
@@ -294,7 +300,7 @@ impl Episode {
                 speed_mps: self.ego.v,
                 accel_mps2: self.ego.a,
                 to_goal_m: self.goal_s - self.ego.s,
-                speed_limit_mps: self.speed_limit,
+                speed_limit_mps: self.ego_speed_limit(),
             },
             scene,
             last_action: self.held,
@@ -376,7 +382,8 @@ impl Episode {
         let mut twin_collided = false;
         for _ in 0..DECISION_INTERVAL {
             let t = self.time();
-            let a_cmd = control.acceleration(self.ego.v, self.speed_limit, DT).clamp(-EGO_MAX_BRAKE, EGO_MAX_ACCEL);
+            let a_cmd =
+                control.acceleration(self.ego.v, self.ego_speed_limit(), DT).clamp(-EGO_MAX_BRAKE, EGO_MAX_ACCEL);
             self.ego.advance(a_cmd, DT);
             self.world.advance(&self.ego, t, DT);
             if let Some(twin) = self.twin.as_mut() {

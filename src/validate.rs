@@ -527,7 +527,8 @@ pub fn check_late_reader(late: &[LateCell]) -> Check {
 }
 
 /// How the road users of one cell moved, over every built-in policy's
-/// episodes, and the speed limit its scene states.
+/// episodes, and the speed limit its scene states for the other cars (the
+/// merge's through lane has its own).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MotionCell {
     pub scenario: ScenarioKind,
@@ -560,7 +561,8 @@ pub fn road_user_motion(
                 motion = motion.merge(episode.road_user_motion());
             }
         }
-        MotionCell { scenario, tier, motion, speed_limit_mps: config.common().speed_limit_mps }
+        let speed_limit_mps = motion.car_speed_limit_mps.unwrap_or(config.common().speed_limit_mps);
+        MotionCell { scenario, tier, motion, speed_limit_mps }
     })
 }
 

@@ -116,7 +116,7 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     place_fields: &["ego_to_merge_m", "ramp_left_m"],
     place_text: |n| format!("{} m to the merge point, {} m of ramp left", n[0], n[1]),
     tracks_relative_to_ego: true,
-    situation: "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point.",
+    situation: "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point. The through lane has its own speed limit: the one on your line becomes it once you are in the lane.",
     track_labels: &[
         TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)", field: "lane_car" },
         TrackLabel {
@@ -212,6 +212,10 @@ pub struct MergeRoad {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MergeLane {
+    /// The through lane's own speed limit (m/s), which the scene states:
+    /// the lane cars keep to it, and it is the ego's once the ego is in the
+    /// lane (on the ramp the ego keeps the episode's limit).
+    pub speed_limit_mps: f64,
     pub cruise_speed_mps: Range,
     /// Lane car's centre relative to the ego's at t = 0 (m): it starts alongside.
     pub alongside_offset_m: Range,
@@ -303,7 +307,8 @@ impl super::ScenarioParams for MergeParams {
         c.within("ego.goal_past_ramp_end_m", self.ego.goal_past_ramp_end_m, 0.0, 200.0)?;
         c.within("road.taper_length_m", self.road.taper_length_m, 5.0, 100.0)?;
         let lane = &self.lane;
-        c.range_within("lane.cruise_speed_mps", lane.cruise_speed_mps, 1.0, 25.0)?;
+        c.within("lane.speed_limit_mps", lane.speed_limit_mps, self.episode.speed_limit_mps, 30.0)?;
+        c.range_within("lane.cruise_speed_mps", lane.cruise_speed_mps, 1.0, lane.speed_limit_mps)?;
         c.range_within("lane.alongside_offset_m", lane.alongside_offset_m, -20.0, 20.0)?;
         c.range_within("lane.follower_gap_m", lane.follower_gap_m, CAR_LENGTH + 1.0, 200.0)?;
         c.within("lane.follower_headway_s", lane.follower_headway_s, 0.1, 5.0)?;
@@ -445,6 +450,12 @@ impl MergeWorld {
         -LANE_OFFSET * (1.0 - f)
     }
 
+    /// The fastest a lane car drives: up to `deny_extra_mps` above its
+    /// cruise to keep an ego out, never above the lane's limit.
+    fn top_speed(&self) -> f64 {
+        (self.cruise + self.params.lane.deny_extra_mps).min(self.params.lane.speed_limit_mps)
+    }
+
     /// Whether the ego's body overlaps the through lane.
     fn ego_in_lane(&self, ego: &Body) -> bool {
         ego.s > self.merge_point
@@ -562,7 +573,7 @@ impl MergeWorld {
         let rel = lane.s - ego.s;
         let alongside = !self.ego_in_lane(ego) && rel < CAR_LENGTH && rel > -(CAR_LENGTH + 2.0);
         let target = if alongside {
-            (ego.v - DENY_LEVEL_GAIN * rel).clamp(self.cruise, self.cruise + p.deny_extra_mps)
+            (ego.v - DENY_LEVEL_GAIN * rel).clamp(self.cruise, self.top_speed())
         } else {
             self.cruise
         };
@@ -587,7 +598,7 @@ impl MergeWorld {
             let behind = (-rel).max(0.0);
             let beside = rel < CAR_LENGTH + 1.0;
             let pace =
-                (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.cruise + p.deny_extra_mps);
+                (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.top_speed());
             // Drawing level with an ego beside it is brisk. Wholly ahead of
             // the ego it holds its pace until it has cleared the merge
             // point (slowing with an ego that slows), however the ego behind
@@ -627,7 +638,7 @@ impl MergeWorld {
         // Visibly holding back: never as fast as the ego until it is in.
         let follow = (ego.v + 0.8 * (gap - p.open_gap_m)).min(ego.v - HOLD_BACK_MPS);
         let target = if gap < 0.0 { follow.min(ego.v - DROP_BACK_MPS).min(lane.v) } else { follow };
-        let target = target.clamp(floor, self.cruise + p.deny_extra_mps);
+        let target = target.clamp(floor, self.top_speed());
         track_speed(lane.v, target, self.params.idm.accel, decel, dt)
     }
 
@@ -641,7 +652,7 @@ impl MergeWorld {
             self.phase = Phase::Hold;
         }
         let target =
-            (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.cruise + self.params.lane.deny_extra_mps);
+            (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.top_speed());
         track_speed(lane.v, target, self.params.tier3.close_accel_mps2, CLOSE_BRAKE_MPS2, dt)
     }
 
@@ -749,14 +760,20 @@ impl World for MergeWorld {
         let a_lane = self.lane_car_accel(ego, t, dt);
         let a_shadow = self.hold_accel(self.shadow, ego, dt);
         self.shadow.advance(a_shadow, dt);
-        let a_follow = self.follower_accel(a_lane, ego);
+        // No lane car drives above the lane's limit: closing the door, the
+        // follower matches the lane car only up to it.
+        let a_follow = self.follower_accel(a_lane, ego).min((self.params.lane.speed_limit_mps - self.follower.v) / dt);
         self.track_motion(ego, a_follow);
         self.lane_car.advance(a_lane, dt);
         self.follower.advance(a_follow, dt);
     }
 
     fn motion(&self) -> Motion {
-        self.motion
+        Motion { car_speed_limit_mps: Some(self.params.lane.speed_limit_mps), ..self.motion }
+    }
+
+    fn ego_speed_limit(&self, ego: &Body) -> Option<f64> {
+        self.ego_in_lane(ego).then_some(self.params.lane.speed_limit_mps)
     }
 
     fn contact(&self, ego: &Body) -> Contact {

@@ -84,6 +84,12 @@ pub trait World {
     fn motion(&self) -> Motion {
         Motion::default()
     }
+    /// The speed limit that binds the ego where it is now (m/s), where the
+    /// world states one other than the episode's (the merge's through lane,
+    /// once the ego is in it). Public: it is on the "You:" line.
+    fn ego_speed_limit(&self, _ego: &Body) -> Option<f64> {
+        None
+    }
 }
 
 /// How a world's road users have moved in one episode: the figures that
@@ -98,6 +104,9 @@ pub struct Motion {
     /// The fastest a car other than the ego drove (m/s), against the speed
     /// limit the scene states.
     pub fastest_car_mps: Option<f64>,
+    /// The speed limit the scene states for the road the other cars drive
+    /// on, where it is not the episode's (the merge's through lane).
+    pub car_speed_limit_mps: Option<f64>,
 }
 
 impl Motion {
@@ -112,6 +121,7 @@ impl Motion {
             slowest_crossing_mps: pick(self.slowest_crossing_mps, other.slowest_crossing_mps, f64::min),
             open_road_brake_mps2: self.open_road_brake_mps2.max(other.open_road_brake_mps2),
             fastest_car_mps: pick(self.fastest_car_mps, other.fastest_car_mps, f64::max),
+            car_speed_limit_mps: pick(self.car_speed_limit_mps, other.car_speed_limit_mps, f64::min),
         }
     }
 }
