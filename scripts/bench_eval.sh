@@ -12,6 +12,9 @@
 #      episodes are left in flight (about half an episode's length).
 #   3. Peak memory (max RSS, /usr/bin/time -v) of eval in run 1: an n 200 run
 #      of every scenario and tier; target under 100 MB.
+#   4. The forecast probe's cost: run 1 again with `--probe forecast` on both
+#      sides; eval's CPU (user + system) per decision turn against run 1's,
+#      the twin world included; target at most 2x.
 #
 # Usage: scripts/bench_eval.sh [OUT_DIR]   (default: a fresh temporary dir)
 # Needs: cargo, /usr/bin/time (Debian package `time`), python3.
@@ -79,5 +82,20 @@ import sys
 turns, wall = int(sys.argv[1]), float(sys.argv[2])
 ideal = turns * 0.5 / 100
 print(f"decision turns {turns}, wall {wall:.2f} s, ideal {ideal:.2f} s -> {wall / ideal:.3f} x ideal (target <= 1.10): {'PASS' if wall <= 1.1 * ideal else 'FAIL'}")
+EOF
+echo "== 4: the forecast probe's cost (latency 0, -c 64, all scenarios x tiers, n 200): eval's CPU per turn with --probe forecast against run 1's"
+start_serve probe --latency-ms 0 --probe forecast
+/usr/bin/time -v "$BIN" eval --base-url "$BASE_URL" --model expert --scenario all --tier all -n 200 -c 64 \
+  --probe forecast --output "$OUT/probe" --run-name run --quiet >"$OUT/probe.summary" 2>"$OUT/probe.time"
+stop_serve
+# User plus system CPU seconds of one /usr/bin/time -v report.
+cpu() { awk -F': ' '/User time \(seconds\)|System time \(seconds\)/ { s += $2 } END { print s }' "$1"; }
+python3 - "$(inv "$OUT/overhead/run/run.json" turns)" "$(cpu "$OUT/overhead.time")" \
+  "$(inv "$OUT/probe/run/run.json" turns)" "$(cpu "$OUT/probe.time")" <<'EOF'
+import sys
+plain_turns, plain_cpu, probe_turns, probe_cpu = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+plain, probe = plain_cpu / plain_turns * 1e6, probe_cpu / probe_turns * 1e6
+ratio = probe / plain
+print(f"eval CPU per turn: {plain:.0f} us without the probe, {probe:.0f} us with --probe forecast -> {ratio:.2f}x (target <= 2): {'PASS' if ratio <= 2 else 'FAIL'}")
 EOF
 echo "outputs in $OUT"

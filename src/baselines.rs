@@ -4,6 +4,7 @@
 use crate::belief::{BeliefMetrics, BeliefSummary};
 use crate::episode::{EpisodeRecord, Outcome, run_episode};
 use crate::export::{self, Column, Field, Style, Table};
+use crate::forecast::{ForecastMetrics, ForecastSummary, Reference, play_with_references};
 use crate::par::par_map;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -156,6 +157,70 @@ pub(crate) fn belief_table(cells: &[CellSummary]) -> Table {
     Table::of("baseline_beliefs", "", &fields, &probed)
 }
 
+/// One row of the forecast table (`baselines --probe forecast`): a
+/// reference forecaster's scores along one cell's episodes, the cell's
+/// policy driving.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ForecastCell {
+    pub cell: Cell,
+    pub reference: Reference,
+    pub n: usize,
+    pub forecast: ForecastSummary,
+}
+
+/// Play every cell of the grid with every reference forecaster along
+/// (the episodes are the grid's: the forecasters only watch); rows come
+/// back in grid order, then [`Reference::ALL`]'s.
+pub fn run_forecast_grid(set: &ScenarioSet, spec: &GridSpec) -> Vec<ForecastCell> {
+    let cells = grid_cells(spec);
+    par_map(&cells, |&cell| {
+        let config = set.get(cell.scenario);
+        let mut policy = cell.policy.build();
+        let scores: Vec<Vec<ForecastMetrics>> = (0..spec.episodes as u64)
+            .map(|i| play_with_references(config, cell.tier, spec.seed_base.wrapping_add(i), policy.as_mut()).1)
+            .collect();
+        Reference::ALL
+            .iter()
+            .enumerate()
+            .map(|(k, &reference)| ForecastCell {
+                cell,
+                reference,
+                n: scores.len(),
+                forecast: ForecastSummary::of(scores.iter().map(|s| &s[k])),
+            })
+            .collect::<Vec<_>>()
+    })
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+/// The forecast table: every reference's forecast scores per cell.
+pub(crate) fn forecast_table(rows: &[ForecastCell]) -> Table {
+    use export::Cell as Value;
+    let keys = vec![
+        Field::new(Column::new("scenario", "scenario").style(Style::Code), |r: &ForecastCell| {
+            Value::text(r.cell.scenario.to_string())
+        }),
+        Field::new(Column::new("tier", "tier"), |r: &ForecastCell| Value::Int(r.cell.tier.number().into())),
+        Field::new(Column::new("policy", "policy").style(Style::Code), |r: &ForecastCell| {
+            Value::text(r.cell.policy.to_string())
+        }),
+        Field::new(Column::new("forecaster", "forecaster").style(Style::Code), |r: &ForecastCell| {
+            Value::text(r.reference.to_string())
+        }),
+        Field::new(Column::new("n", "n"), |r: &ForecastCell| Value::Int(r.n as u64)),
+    ];
+    fn summary(r: &ForecastCell) -> &ForecastSummary {
+        &r.forecast
+    }
+    let fields: Vec<Field<ForecastCell>> =
+        keys.into_iter().chain(crate::forecast::metrics::fields().into_iter().map(|f| f.of(summary))).collect();
+    let mut table = Table::of("baseline_forecasts", "", &fields, rows);
+    table.note(crate::forecast::metrics::TABLE_NOTE);
+    table
+}
+
 /// A normal-approximation interval cannot leave the metric's range.
 fn clamp(i: Interval, lo: f64, hi: f64) -> Interval {
     Interval { estimate: i.estimate, lo: i.lo.clamp(lo, hi), hi: i.hi.clamp(lo, hi) }
@@ -193,6 +258,15 @@ pub fn run_grid(
     spec: &GridSpec,
     each: &(dyn Fn(Cell, &[EpisodeRecord]) + Sync),
 ) -> Vec<CellSummary> {
+    par_map(&grid_cells(spec), |&cell| {
+        let records = run_cell(set, cell, spec.episodes, spec.seed_base);
+        each(cell, &records);
+        CellSummary::from_records(cell, &records)
+    })
+}
+
+/// The grid's cells, in grid order (scenario, tier, policy).
+fn grid_cells(spec: &GridSpec) -> Vec<Cell> {
     let mut cells = Vec::new();
     for &scenario in &spec.scenarios {
         for &tier in &spec.tiers {
@@ -201,9 +275,5 @@ pub fn run_grid(
             }
         }
     }
-    par_map(&cells, |&cell| {
-        let records = run_cell(set, cell, spec.episodes, spec.seed_base);
-        each(cell, &records);
-        CellSummary::from_records(cell, &records)
-    })
+    cells
 }

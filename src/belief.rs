@@ -1,8 +1,6 @@
 //! The belief probe (`eval --probe belief`): what a policy says it believes
 //! about the other road user, next to what an ideal observer believes.
 //!
-//! - [`Probe`]: part of a run's configuration (a probe run is its own run
-//!   directory and leaderboard row).
 //! - [`question`]: the neutral wording of the belief question per scenario,
 //!   and `check_neutral`, the leak check every prompt passes (in the tests:
 //!   the prompts are fixed text).
@@ -22,34 +20,6 @@
 use crate::action::Maneuver;
 use crate::scenario::ScenarioKind;
 use serde::{Deserialize, Serialize};
-
-/// Which probe a run adds to every answer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Probe {
-    /// The headline protocol: the action only.
-    #[default]
-    None,
-    /// Also a `"belief"` field: P(the other road user lets the ego pass first).
-    Belief,
-}
-
-impl Probe {
-    pub fn is_none(&self) -> bool {
-        *self == Probe::None
-    }
-}
-
-impl std::str::FromStr for Probe {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim() {
-            "belief" => Ok(Probe::Belief),
-            "none" => Ok(Probe::None),
-            other => Err(format!("unknown probe '{other}' (expected belief or none)")),
-        }
-    }
-}
 
 /// The belief question for a scenario: names the road user and the place
 /// as the scene text does, and says nothing about how it may behave.

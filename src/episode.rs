@@ -97,6 +97,26 @@ impl EvidenceTiming {
     }
 }
 
+/// Privileged: where the forecast probe's road users are at one decision,
+/// in the true world and in the other disposition's, both driven by the
+/// same ego (the references the forecasts are scored against).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ForecastTruth {
+    pub time_s: f64,
+    /// The ego's travel along its path so far (m): where positions are
+    /// measured from the ego, a forecast made at one decision is scored in
+    /// that decision's frame.
+    pub ego_travel_m: f64,
+    /// [`World::true_positions`] under the hidden disposition ...
+    pub actual: Vec<f64>,
+    /// ... and under the other one.
+    pub other: Vec<f64>,
+    /// Whether either world's road user had begun to move as its
+    /// disposition makes it ([`World::revealed`]): until then the two
+    /// must be byte-identical.
+    pub revealed: bool,
+}
+
 /// Plan-view positions at one decision (ego first).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrajectoryPoint {
@@ -161,6 +181,11 @@ pub struct Episode {
     observation: Observation,
     decisions: Vec<DecisionRecord>,
     trajectory: Option<Vec<TrajectoryPoint>>,
+    /// The other disposition's world for the whole episode (the evidence
+    /// twin above stops at the evidence), and where both worlds' road users
+    /// were at every decision: kept only for the forecast probe.
+    forecast_twin: Option<Box<dyn World + Send>>,
+    forecast_truth: Vec<ForecastTruth>,
     tracker: Tracker,
 }
 
@@ -224,6 +249,8 @@ impl Episode {
             observation,
             decisions: Vec::with_capacity(common.turn_budget.get(tier) as usize),
             trajectory: None,
+            forecast_twin: None,
+            forecast_truth: Vec::new(),
             tracker: Tracker { min_gap_m: f64::INFINITY, ..Tracker::default() },
         };
         episode.compare_twin(twin_scene);
@@ -235,6 +262,45 @@ impl Episode {
         if self.trajectory.is_none() {
             self.trajectory = Some(vec![self.trajectory_point()]);
         }
+    }
+
+    /// Keep, at every decision, where the forecast probe's road users are
+    /// under both dispositions, the other one's world driven by the same
+    /// ego ([`Episode::forecast_truth`]). Only before the first step (the
+    /// other world must start with this one); returns whether it is kept.
+    pub fn record_forecast_truth(&mut self, config: &ScenarioConfig) -> bool {
+        if self.turn > 0 {
+            return self.forecast_twin.is_some();
+        }
+        if self.forecast_twin.is_none() {
+            let [a, b] = self.spec.scenario.dispositions();
+            let other = if self.disposition == a { b } else { a };
+            let key = episode_key(self.spec.scenario, self.spec.tier, self.spec.seed);
+            let mut twin = config.build_world(self.spec.tier, other, &key);
+            // Observed as the real world is, so that its state advances in
+            // step (a world's history and noise move at each observation).
+            twin.observe(&self.ego);
+            self.forecast_twin = Some(twin);
+            self.push_forecast_truth();
+        }
+        true
+    }
+
+    /// Privileged: where the forecast probe's road users were at every
+    /// decision so far (empty unless [`Episode::record_forecast_truth`]).
+    pub fn forecast_truth(&self) -> &[ForecastTruth] {
+        &self.forecast_truth
+    }
+
+    fn push_forecast_truth(&mut self) {
+        let Some(twin) = self.forecast_twin.as_ref() else { return };
+        self.forecast_truth.push(ForecastTruth {
+            time_s: self.time(),
+            ego_travel_m: self.ego.s - self.start_s,
+            actual: self.world.true_positions(&self.ego),
+            other: twin.true_positions(&self.ego),
+            revealed: self.world.revealed() || twin.revealed(),
+        });
     }
 
     pub fn spec(&self) -> EpisodeSpec {
@@ -390,6 +456,9 @@ impl Episode {
                 twin.advance(&self.ego, t, DT);
                 twin_collided |= twin.contact(&self.ego).collision;
             }
+            if let Some(twin) = self.forecast_twin.as_mut() {
+                twin.advance(&self.ego, t, DT);
+            }
             self.step += 1;
             steps_this_turn += 1;
             self.track_step();
@@ -425,6 +494,14 @@ impl Episode {
         self.held = Some(action);
         if self.outcome.is_none() && self.turn >= self.turn_budget {
             self.outcome = Some(Outcome::Timeout);
+        }
+        if steps_this_turn == DECISION_INTERVAL {
+            // A decision's full interval: its end is the next decision's
+            // time, which a forecast made earlier may reach.
+            if let Some(twin) = self.forecast_twin.as_mut() {
+                twin.observe(&self.ego);
+            }
+            self.push_forecast_truth();
         }
         if self.outcome.is_none() {
             if twin_collided && self.twin.is_some() {

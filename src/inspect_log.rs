@@ -94,7 +94,7 @@ pub fn read(path: &Path) -> Result<Imported, InspectLogError> {
         prompt_hash: crate::hash::fnv1a64_hex(prompt),
         scenarios_hash: set.config_hash(),
         endpoint: if endpoint.is_empty() { format!("inspect:{}", spec.model) } else { endpoint.clone() },
-        probe: crate::belief::Probe::None,
+        probe: crate::probe::Probe::NONE,
         human: None,
     };
     for sample in &samples {
@@ -277,6 +277,8 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
             ideal_belief: Some(ideal_belief),
             belief: None,
             belief_error: None,
+            forecast: None,
+            forecast_error: None,
         });
     }
     if !episode.is_done() {
@@ -307,7 +309,7 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
         wall_ms: sample.total_time.map_or(0, |t| (t * 1e3).round() as u64),
         finished_at: sample.completed_at.clone().unwrap_or_default(),
     };
-    Ok(Replayed::Finished(Box::new(RolloutRecord::assemble(key, graded, turns, None, from))))
+    Ok(Replayed::Finished(Box::new(RolloutRecord::assemble(key, graded, turns, Default::default(), from))))
 }
 
 /// Inspect's stop reasons in the words `eval` records (`finish_reason`).

@@ -15,7 +15,11 @@
 //! - [`features`]: the observation as a fixed-length vector and the discrete
 //!   action set, for policies that do not read text (env-server's
 //!   `features` view, the learned adversary);
+//! - `probe`: which probes a run adds to every answer;
 //! - `belief`: the belief probe and the belief metrics;
+//! - [`forecast`]: the forecast probe, its reference forecasters and its
+//!   metrics (scored against the episode and its twin under the other
+//!   disposition);
 //! - `noise`: the observation noise model and the ideal observer's
 //!   likelihoods (a leaf the worlds and the episode share);
 //! - `grading`: reward, decision correctness, diagnostics;
@@ -57,6 +61,7 @@ pub mod episode;
 pub(crate) mod eval;
 pub mod export;
 pub mod features;
+pub mod forecast;
 pub(crate) mod grading;
 pub(crate) mod hash;
 pub mod inspect_log;
@@ -68,6 +73,7 @@ pub mod observation;
 pub(crate) mod par;
 pub(crate) mod play;
 pub mod policy;
+pub(crate) mod probe;
 pub mod redact;
 pub mod report;
 pub(crate) mod rng;

@@ -51,6 +51,9 @@ pub struct CellMetrics {
     /// Belief-probe runs: the belief metrics of the cell.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub belief: Option<BeliefSummary>,
+    /// Forecast-probe runs: the forecast metrics of the cell.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forecast: Option<crate::forecast::ForecastSummary>,
 }
 
 impl CellMetrics {
@@ -80,6 +83,10 @@ impl CellMetrics {
                 .iter()
                 .any(|e| e.belief.is_some())
                 .then(|| BeliefSummary::of(eps.iter().filter_map(|e| e.belief.as_ref()))),
+            forecast: eps
+                .iter()
+                .any(|e| e.forecast.is_some())
+                .then(|| crate::forecast::ForecastSummary::of(eps.iter().filter_map(|e| e.forecast.as_ref()))),
         }
     }
 }

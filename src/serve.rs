@@ -68,6 +68,9 @@ pub(crate) struct ServeConfig {
     /// `--probe belief`: add the policy's belief to every answer; the
     /// expert's needs its episode found in this index.
     pub(crate) belief: Option<Arc<EpisodeIndex>>,
+    /// `--probe forecast`: add the rules forecaster's forecast of the last
+    /// scene to every answer (it reads only the scene text).
+    pub(crate) forecast: bool,
 }
 
 /// Counts of what was served (for the shutdown line and tests).
@@ -297,21 +300,29 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     let scenes: Vec<String> = text("user").into_iter().map(|t| scene_inside(&t).unwrap_or(t)).collect();
     let scene = scenes.last().map_or("", String::as_str);
     let earlier: Vec<&str> = scenes[..scenes.len().saturating_sub(1)].iter().map(String::as_str).collect();
-    let Some(index) = &cfg.belief else {
-        let (answer, _) = answer_with_belief(cfg.policy, cfg.seed, &earlier, scene, None);
-        return (action_json(&answer.action, &answer.reasoning).to_string(), answer.scene);
-    };
-    let replies = text("assistant");
-    let ideal = index.ideal_belief(
-        &scenes.iter().map(String::as_str).collect::<Vec<_>>(),
-        &replies.iter().map(String::as_str).collect::<Vec<_>>(),
-    );
-    if ideal.is_none() {
-        state.stats.unidentified_episodes.fetch_add(1, Ordering::Relaxed);
-    }
+    let ideal = cfg.belief.as_ref().and_then(|index| {
+        let replies = text("assistant");
+        let ideal = index.ideal_belief(
+            &scenes.iter().map(String::as_str).collect::<Vec<_>>(),
+            &replies.iter().map(String::as_str).collect::<Vec<_>>(),
+        );
+        if ideal.is_none() {
+            state.stats.unidentified_episodes.fetch_add(1, Ordering::Relaxed);
+        }
+        ideal
+    });
     let (answer, belief) = answer_with_belief(cfg.policy, cfg.seed, &earlier, scene, ideal);
     let mut content = action_json(&answer.action, &answer.reasoning);
-    content["belief"] = json!(belief);
+    if cfg.belief.is_some() {
+        content["belief"] = json!(belief);
+    }
+    if cfg.forecast
+        && let Ok(obs) = crate::observation::parse_scene(scene)
+    {
+        use crate::forecast::{DOES_NOT_KEY, Forecaster, LETS_YOU_GO_KEY};
+        let f = crate::forecast::rules::RulesForecaster.forecast(&obs);
+        content["forecast"] = json!({ LETS_YOU_GO_KEY: f.lets_you_go, DOES_NOT_KEY: f.does_not });
+    }
     (content.to_string(), answer.scene)
 }
 
@@ -481,6 +492,7 @@ mod tests {
             drop_rate: 0.0,
             garbage_rate: 0.0,
             belief: None,
+            forecast: false,
         });
         assert!(s.rate_limit().is_ok());
         assert!(s.rate_limit().is_ok());

@@ -152,3 +152,37 @@ def test_the_disposition_shows_only_after_the_episode(env_server: str, expert_en
         for message in sample.messages:
             assert disposition not in message.text, f"{disposition} in a message"
         assert disposition not in json.dumps(sample.metadata)
+
+
+@pytest.fixture(scope="module")
+def forecasting_endpoint() -> Iterator[str]:
+    process, url = start("serve", "--policy", "expert", "--probe", "forecast")
+    yield url
+    process.terminate()
+    process.wait()
+
+
+def test_the_forecast_probe_is_asked_read_and_scored_by_env_server(
+    env_server: str, forecasting_endpoint: str, tmp_path: Path
+) -> None:
+    # A service of its own: Inspect keeps one client per model name.
+    os.environ["FORECASTING_BASE_URL"] = forecasting_endpoint
+    os.environ["FORECASTING_API_KEY"] = "offline"
+    [log] = inspect_eval(
+        negotiator(scenario="yield_standoff,contested_merge", tier="1", seeds=SEEDS, base_url=env_server,
+                   probe="forecast"),
+        model="openai-api/forecasting/expert",
+        log_dir=str(tmp_path / "logs"),
+        display="none",
+    )
+    ours = episodes(log)
+    assert len(ours) == 2 * SEEDS
+    for md in ours.values():
+        forecast = md["forecast"]
+        assert isinstance(forecast, dict)
+        assert forecast["episode"]["probe_errors"] == 0, forecast
+        assert forecast["episode"]["stated_turns"] == md["decisions"], forecast
+    assert log.samples is not None
+    system = log.samples[0].messages[0].text
+    assert "if_it_lets_you_go_first" in system, system
+

@@ -4,7 +4,10 @@
 mod json;
 mod parse;
 
-pub use parse::{ActionParseError, BeliefParseError, ParsedAction, parse_action, parse_belief};
+pub use parse::{
+    ActionParseError, BeliefParseError, ForecastParseError, ParsedAction, StatedForecast, parse_action, parse_belief,
+    parse_forecast,
+};
 
 use serde::{Deserialize, Serialize};
 use std::fmt;

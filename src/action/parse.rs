@@ -184,6 +184,81 @@ pub fn parse_belief(text: &str) -> Result<f64, BeliefParseError> {
     }
 }
 
+/// Why the forecast probe's `"forecast"` field could not be read. Like a
+/// belief error it never touches the action: a probe parse error.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
+#[serde(tag = "kind", content = "detail", rename_all = "snake_case")]
+pub enum ForecastParseError {
+    /// No JSON object to read the field from (the action parse says why).
+    #[error("no JSON answer to read a forecast from")]
+    NoAnswer,
+    #[error("no \"forecast\" field")]
+    Missing,
+    /// Not an object with both intents' lists of [1 s, 2 s] pairs.
+    #[error("forecast is not an object of two lists of [1 s, 2 s] pairs: {value:?}")]
+    Malformed { value: String },
+    #[error("forecast gives {got} road users under {intent:?}, expected {expected}")]
+    WrongCount { intent: String, expected: usize, got: usize },
+}
+
+/// A forecast as read from an answer: per intent (lets the ego go first,
+/// does not), per road user, the positions at 1 s and 2 s.
+pub type StatedForecast = [Vec<[f64; 2]>; 2];
+
+/// Read the forecast probe's `"forecast"` field from the same JSON object
+/// [`parse_action`] reads the action from: an object whose keys
+/// `lets_you_go_key` and `does_not_key` each hold `road_users` pairs of
+/// finite numbers (numbers written as strings accepted; a single road
+/// user's pair may come unwrapped). Never panics.
+pub fn parse_forecast(
+    text: &str,
+    road_users: usize,
+    lets_you_go_key: &str,
+    does_not_key: &str,
+) -> Result<StatedForecast, ForecastParseError> {
+    let scan = scan(text);
+    if scan.answer_region.and_then(non_object_kind).is_some() {
+        return Err(ForecastParseError::NoAnswer);
+    }
+    let fields = scan.answer().ok_or(ForecastParseError::NoAnswer)?;
+    let v = lookup(fields, "forecast").ok_or(ForecastParseError::Missing)?;
+    let malformed = || ForecastParseError::Malformed { value: clip(v.text()) };
+    let Val::Other(raw) = v else { return Err(malformed()) };
+    let object: serde_json::Map<String, serde_json::Value> = serde_json::from_str(raw).map_err(|_| malformed())?;
+    let number = |x: &serde_json::Value| {
+        match x {
+            serde_json::Value::Number(n) => n.as_f64(),
+            serde_json::Value::String(s) => s.trim().parse::<f64>().ok(),
+            _ => None,
+        }
+        .filter(|x| x.is_finite())
+    };
+    let pair = |x: &serde_json::Value| -> Option<[f64; 2]> {
+        match x.as_array()?.as_slice() {
+            [a, b] => Some([number(a)?, number(b)?]),
+            _ => None,
+        }
+    };
+    let intent = |key: &str| -> Result<Vec<[f64; 2]>, ForecastParseError> {
+        let list = object.iter().find(|(k, _)| key_is(k, key)).map(|(_, v)| v).ok_or_else(malformed)?;
+        let pairs: Vec<[f64; 2]> = match pair(list) {
+            Some(p) if road_users == 1 => vec![p],
+            _ => {
+                list.as_array().ok_or_else(malformed)?.iter().map(pair).collect::<Option<_>>().ok_or_else(malformed)?
+            }
+        };
+        if pairs.len() != road_users {
+            return Err(ForecastParseError::WrongCount {
+                intent: key.to_string(),
+                expected: road_users,
+                got: pairs.len(),
+            });
+        }
+        Ok(pairs)
+    };
+    Ok([intent(lets_you_go_key)?, intent(does_not_key)?])
+}
+
 // ---------------------------------------------------------------------------
 // Field validation
 
@@ -503,6 +578,33 @@ mod tests {
     const GO_ACTION: Action = Action { maneuver: Maneuver::Proceed, acceleration: 0.5, steering: 0.25 };
 
     // --- accepted forms ---------------------------------------------------
+
+    #[test]
+    fn a_forecast_is_read_beside_the_action_and_its_faults_are_named() {
+        let read = |text: &str, n| parse_forecast(text, n, "lets", "not");
+        let answer =
+            r#"{"maneuver": "yield", "acceleration": 0.2, "forecast": {"lets": [[3.0, "1.5"]], "Not": [[2.0, -1]]}}"#;
+        assert_eq!(read(answer, 1), Ok([vec![[3.0, 1.5]], vec![[2.0, -1.0]]]));
+        // One road user's pair may come unwrapped.
+        assert_eq!(
+            read(r#"{"forecast": {"lets": [1, 2], "not": [3, 4]}}"#, 1),
+            Ok([vec![[1.0, 2.0]], vec![[3.0, 4.0]]])
+        );
+        assert_eq!(read(r#"{"maneuver": "stop"}"#, 1), Err(ForecastParseError::Missing));
+        assert_eq!(read("no json here", 1), Err(ForecastParseError::NoAnswer));
+        assert!(matches!(read(r#"{"forecast": 3}"#, 1), Err(ForecastParseError::Malformed { .. })));
+        assert!(matches!(read(r#"{"forecast": {"lets": [[1, 2]]}}"#, 1), Err(ForecastParseError::Malformed { .. })));
+        assert!(matches!(
+            read(r#"{"forecast": {"lets": [[1, NaN]], "not": [[1, 2]]}}"#, 1),
+            Err(ForecastParseError::Malformed { .. })
+        ));
+        assert_eq!(
+            read(r#"{"forecast": {"lets": [[1, 2]], "not": [[1, 2]]}}"#, 2),
+            Err(ForecastParseError::WrongCount { intent: "lets".into(), expected: 2, got: 1 })
+        );
+        // The action is read as without the probe.
+        assert_eq!(parse_action(answer).action.maneuver, Maneuver::Yield);
+    }
 
     #[test]
     fn plain_object() {

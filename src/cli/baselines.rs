@@ -2,9 +2,9 @@
 
 use super::parse_list;
 use crate::baselines::{GridSpec, run_grid};
-use crate::belief::Probe;
 use crate::export::Format;
 use crate::policy::PolicyKind;
+use crate::probe::Probe;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -34,6 +34,9 @@ pub struct BaselinesArgs {
     /// `belief`: print the belief-probe table instead (each policy's stated
     /// belief scored like a model's: the expert states the ideal
     /// observer's, the cue follower its cue's, random a uniform draw).
+    /// `forecast`: print the forecast-probe table of the reference
+    /// forecasters (constant velocity, rules, the same future under both
+    /// intents) along each policy's episodes.
     #[arg(long, default_value = "none", value_parser = |s: &str| s.parse::<Probe>())]
     pub probe: Probe,
 }
@@ -57,11 +60,15 @@ impl BaselinesArgs {
             episodes: self.episodes,
             seed_base: self.seed,
         };
+        if self.probe.belief && self.probe.forecast {
+            return Err(super::usage("--probe: one probe's table at a time here (belief or forecast)"));
+        }
         let set = ScenarioSet::with_overrides(&self.scenario_files)?;
-        let cells = run_grid(&set, &spec, &|_, _| {});
-        let table = match self.probe {
-            Probe::None => crate::baselines::table(&cells),
-            Probe::Belief => crate::baselines::belief_table(&cells),
+        let table = if self.probe.forecast {
+            crate::baselines::forecast_table(&crate::baselines::run_forecast_grid(&set, &spec))
+        } else {
+            let cells = run_grid(&set, &spec, &|_, _| {});
+            if self.probe.belief { crate::baselines::belief_table(&cells) } else { crate::baselines::table(&cells) }
         };
         crate::redact::term::write_out(&self.format.exporter().render(&table))?;
         Ok(ExitCode::SUCCESS)

@@ -10,7 +10,6 @@
 //! explicitly; an existing run there with another configuration is refused.
 
 use super::{exit, parse_list, usage};
-use crate::belief::Probe;
 use crate::eval::EvalOptions;
 use crate::eval::config::{Endpoint, EndpointsFile, ModelAlias};
 use crate::eval::events::{Reporter, StopReason};
@@ -18,6 +17,7 @@ use crate::eval::prices::Prices;
 use crate::eval::progress::{Bar, JsonLines, Lines, Quiet};
 use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
+use crate::probe::Probe;
 use crate::rundir::sanitize_name;
 use crate::rundir::{HistoryWindow, Pricing, RunConfig, Selection, Shard};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -97,7 +97,9 @@ pub struct EvalArgs {
     #[arg(long, default_value = "full", value_parser = parse_history)]
     pub history: HistoryWindow,
     /// Add a probe to every answer: `belief` asks for the probability that
-    /// the other road user lets the ego pass first. A probe run is its own
+    /// the other road user lets the ego pass first; `forecast` asks where
+    /// it will be 1 s and 2 s from now if it lets the ego go first and if
+    /// it does not; `belief,forecast` asks both. A probe run is its own
     /// run (and leaderboard row); the action is scored as without it.
     #[arg(long, default_value = "none", value_parser = parse_probe)]
     pub probe: Probe,

@@ -84,10 +84,10 @@ impl PlayArgs {
             model: format!("human:{name}"),
             request_params: Default::default(),
             history: HistoryWindow::Full,
-            prompt_hash: crate::eval::prompt::prompt_hash(crate::belief::Probe::None),
+            prompt_hash: crate::eval::prompt::prompt_hash(crate::probe::Probe::NONE),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: "terminal".to_string(),
-            probe: crate::belief::Probe::None,
+            probe: crate::probe::Probe::NONE,
             human: Some(HumanSettings { turn_seconds: self.turn_seconds, view: self.view.clone(), feedback }),
         };
         let run_dir = if self.practice {

@@ -1,7 +1,7 @@
 //! `negotiator serve`: a scripted policy behind an OpenAI-compatible API.
 use super::usage;
-use crate::belief::Probe;
 use crate::policy::PolicyKind;
+use crate::probe::Probe;
 use crate::serve::ServeConfig;
 use std::process::ExitCode;
 use std::sync::atomic::Ordering::Relaxed;
@@ -43,9 +43,11 @@ pub struct ServeArgs {
     /// Seed of the fault injection and of the random policy.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Add the policy's belief to every answer (`belief`), as for
-    /// `eval --probe belief`. The expert states the ideal observer's
-    /// belief, which needs the episode: see --probe-seeds.
+    /// Add the policy's belief (`belief`), the rules forecaster's forecast
+    /// (`forecast`), or both (`belief,forecast`) to every answer, as for
+    /// `eval --probe`. The expert states the ideal observer's belief, which
+    /// needs the episode: see --probe-seeds; the forecast reads only the
+    /// scene text.
     #[arg(long, default_value = "none", value_parser = parse_probe)]
     pub probe: Probe,
     /// Seeds A..B (B excluded) whose episodes the belief probe can find
@@ -98,8 +100,11 @@ impl ServeArgs {
             rate_limit: self.rate_limit,
             drop_rate: rate(self.drop_rate, "--drop-rate")?,
             garbage_rate: rate(self.garbage_rate, "--garbage-rate")?,
-            belief: (self.probe == Probe::Belief)
+            belief: self
+                .probe
+                .belief
                 .then(|| std::sync::Arc::new(crate::serve::EpisodeIndex::build(self.probe_seeds.clone()))),
+            forecast: self.probe.forecast,
         };
         crate::redact::eline!(
             "serving policy '{policy}' (fail {} | drop {} | garbage {} | rate limit {} | latency {} ms | seed {})",

@@ -86,6 +86,7 @@ pub(crate) fn metadata() -> Value {
             "view": "which forms the observations carry: full (default: instructions, scene, public, features), text (instructions and scene), public or features",
             "episode_id": "any string of 1 to 255 bytes (default: generated)",
             "teacher": "a built-in policy (one of teachers): every observation but the last then carries its move (teacher), with the nearest discrete action",
+            "probe": "forecast (default none): the instructions ask every reply for a forecast (as eval --probe forecast), a reply's unreadable forecast is listed in probe_errors, and the terminal grades carry its scores (forecast)",
         },
         "teachers": crate::policy::PolicyKind::ALL.map(crate::policy::PolicyKind::name),
         "reward": REWARD,
@@ -117,6 +118,7 @@ pub(crate) fn openapi() -> Value {
             "view": {"type": "string", "enum": super::session::View::NAMES},
             "episode_id": {"type": "string", "maxLength": 255},
             "teacher": {"type": "string", "enum": crate::policy::PolicyKind::ALL.map(crate::policy::PolicyKind::name)},
+            "probe": {"type": "string", "enum": ["none", "forecast"]},
         },
     });
     let step_body = json!({

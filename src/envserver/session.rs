@@ -14,6 +14,8 @@
 use crate::action::{Action, ActionParseError, Maneuver, ParsedAction, parse_action};
 use crate::episode::{Episode, policy_seed};
 use crate::features::{features, nearest_discrete_action};
+use crate::forecast::{ForecastMetrics, ForecastTurn};
+#[cfg(test)]
 use crate::instructions::SYSTEM_PROMPT;
 use crate::observation::{Observation, render_scene};
 use crate::policy::{Policy, PolicyKind};
@@ -96,7 +98,7 @@ impl View {
 }
 
 /// The fields a reset takes, all optional.
-pub(crate) const RESET_FIELDS: [&str; 6] = ["scenario", "tier", "seed", "view", "episode_id", "teacher"];
+pub(crate) const RESET_FIELDS: [&str; 7] = ["scenario", "tier", "seed", "view", "episode_id", "teacher", "probe"];
 
 /// What a reset asks for, validated.
 #[derive(Debug, Clone, PartialEq)]
@@ -110,6 +112,9 @@ pub(crate) struct ResetRequest {
     /// A built-in policy whose move on each observation the observations
     /// carry (`teacher`), for a learner that imitates it.
     pub teacher: Option<PolicyKind>,
+    /// `"forecast"`: every step's reply may carry a forecast (as for `eval
+    /// --probe forecast`), scored in the terminal step's grades.
+    pub forecast: bool,
 }
 
 impl ResetRequest {
@@ -135,6 +140,7 @@ impl ResetRequest {
             seed: None,
             episode_id: None,
             teacher: None,
+            forecast: false,
         };
         for (key, value) in data {
             if value.is_null() {
@@ -190,6 +196,12 @@ impl ResetRequest {
                         FieldError::new("enum", key, format!("expected one of {}, got {value}", names.join(", ")))
                     }),
                 },
+                "probe" => match value.as_str().map(str::parse::<crate::probe::Probe>) {
+                    Some(Ok(p)) if !p.belief => request.forecast = p.forecast,
+                    _ => {
+                        errors.push(|| FieldError::new("enum", key, format!("expected forecast or none, got {value}")))
+                    }
+                },
                 _ => errors.push(|| FieldError::unknown(key, &RESET_FIELDS)),
             }
         }
@@ -216,7 +228,27 @@ fn tier_of(value: &Value) -> Option<Tier> {
 /// reads it, so a malformed answer is a parse error and a firm stop, as in
 /// `eval`. `metadata` (OpenEnv's) is ignored. Only a payload of the wrong
 /// shape is refused (the session then stays where it was).
+#[cfg(test)]
 pub(crate) fn read_action(data: &Value) -> Result<ParsedAction, SessionError> {
+    Ok(parse_reply(&read_reply(data)?))
+}
+
+/// The action of a reply's text (an oversized one is a parse error and a
+/// firm stop, as `eval --max-reply-bytes` makes it).
+fn parse_reply(text: &str) -> ParsedAction {
+    if text.len() > MAX_REPLY_BYTES {
+        return ParsedAction {
+            action: Action::CONSERVATIVE,
+            reasoning: None,
+            errors: vec![ActionParseError::Oversized { limit: MAX_REPLY_BYTES }],
+        };
+    }
+    parse_action(text)
+}
+
+/// A step's payload as the reply text a model would send: `reply` itself,
+/// or the action's own fields written out as JSON.
+fn read_reply(data: &Value) -> Result<String, SessionError> {
     let Some(fields) = data.as_object() else {
         return Err(SessionError::Invalid(vec![FieldError::whole(
             "dict_type",
@@ -250,14 +282,7 @@ pub(crate) fn read_action(data: &Value) -> Result<ParsedAction, SessionError> {
         }
         None => data.to_string(),
     };
-    if text.len() > MAX_REPLY_BYTES {
-        return Ok(ParsedAction {
-            action: Action::CONSERVATIVE,
-            reasoning: None,
-            errors: vec![ActionParseError::Oversized { limit: MAX_REPLY_BYTES }],
-        });
-    }
-    Ok(parse_action(&text))
+    Ok(text)
 }
 
 /// The observation a client receives. Its JSON schema is part of `/schema`.
@@ -301,6 +326,11 @@ pub(crate) struct EnvObservation {
     /// problem made it a firm stop, as in `eval`); empty when it was clean
     /// or on reset.
     pub parse_errors: Vec<String>,
+    /// With the forecast probe (`probe` at reset): why the last reply's
+    /// forecast could not be read, a probe parse error counted apart (the
+    /// action is unaffected); absent when it was read.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probe_errors: Vec<String>,
     /// Empty until the episode is over; then the grades (see the step
     /// response's `metadata`).
     pub metadata: Map<String, Value>,
@@ -365,6 +395,8 @@ struct Live {
     teacher: Option<(PolicyKind, Box<dyn Policy>)>,
     /// The teacher's move on the current observation.
     advice: Option<TeacherMove>,
+    /// With the forecast probe: each step's forecast so far.
+    forecasts: Option<Vec<ForecastTurn>>,
 }
 
 impl Live {
@@ -401,18 +433,40 @@ impl Session {
         new_id: impl FnOnce() -> String,
     ) -> StepReply {
         let seed = request.seed.unwrap_or_else(draw);
-        let episode = Episode::new(scenarios.get(request.scenario), request.tier, seed);
-        self.start(episode, request.view, request.episode_id.unwrap_or_else(new_id), request.teacher)
+        let config = scenarios.get(request.scenario);
+        let mut episode = Episode::new(config, request.tier, seed);
+        if request.forecast {
+            episode.record_forecast_truth(config);
+        }
+        let id = request.episode_id.unwrap_or_else(new_id);
+        self.start(episode, request.view, id, request.teacher, request.forecast)
     }
 
-    fn start(&mut self, episode: Episode, view: View, episode_id: String, teacher: Option<PolicyKind>) -> StepReply {
+    fn start(
+        &mut self,
+        episode: Episode,
+        view: View,
+        episode_id: String,
+        teacher: Option<PolicyKind>,
+        forecast: bool,
+    ) -> StepReply {
         let teacher = teacher.map(|kind| {
             let mut policy = kind.build();
             policy.reset(policy_seed(episode.spec()));
             (kind, policy)
         });
-        let mut live =
-            Live { episode, view, episode_id, steps: 0, parse_errors: 0, graded: None, teacher, advice: None };
+        let forecasts = forecast.then(Vec::new);
+        let mut live = Live {
+            episode,
+            view,
+            episode_id,
+            steps: 0,
+            parse_errors: 0,
+            graded: None,
+            teacher,
+            advice: None,
+            forecasts,
+        };
         live.advise();
         let reply =
             StepReply { observation: observe(&live, true, Vec::new()), reward: None, done: false, metadata: None };
@@ -426,22 +480,35 @@ impl Session {
         if live.graded.is_some() {
             return Err(SessionError::EpisodeOver(live.episode_id.clone()));
         }
-        let parsed = read_action(data)?;
+        let text = read_reply(data)?;
+        let parsed = parse_reply(&text);
         if !parsed.is_clean() {
             live.parse_errors += 1;
+        }
+        let errors: Vec<String> = parsed.errors.iter().map(ToString::to_string).collect();
+        let mut probe_errors = Vec::new();
+        if let Some(forecasts) = live.forecasts.as_mut() {
+            let turn = read_forecast(&live.episode, &text);
+            if let Err(e) = turn.forecast.as_ref() {
+                probe_errors.push(format!("forecast: {e}"));
+            }
+            forecasts.push(turn.stated());
         }
         live.steps += 1;
         let done = live.episode.step(parsed.action).is_some();
         let mut reward = Some(0.0);
         if done {
             let teacher = live.teacher.as_ref().map(|(kind, _)| *kind);
-            let graded = grades(&live.episode, live.parse_errors, teacher);
+            let mut graded = grades(&live.episode, live.parse_errors, teacher);
+            if let Some(forecasts) = &live.forecasts {
+                graded.insert("forecast".to_string(), forecast_grades(&live.episode, forecasts));
+            }
             reward = graded.get("reward").and_then(Value::as_f64);
             live.graded = Some(graded);
         }
         live.advise();
-        let errors = parsed.errors.iter().map(ToString::to_string).collect();
-        let observation = observe(live, false, errors);
+        let mut observation = observe(live, false, errors);
+        observation.probe_errors = probe_errors;
         Ok(StepReply { observation, reward, done, metadata: live.graded.clone() })
     }
 
@@ -474,7 +541,10 @@ fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservatio
     let view = live.view;
     let public = (view.public() || view.features()).then(|| o.rounded());
     EnvObservation {
-        instructions: (first && view.text()).then(|| SYSTEM_PROMPT.to_string()),
+        instructions: (first && view.text()).then(|| {
+            let probe = crate::probe::Probe { forecast: live.forecasts.is_some(), ..Default::default() };
+            crate::probe::system_prompt(probe, spec.scenario)
+        }),
         scene: view.text().then(|| render_scene(o)),
         features: public.as_ref().filter(|_| view.features()).map(|p| features(p, spec.tier)),
         teacher: live.advice,
@@ -487,8 +557,49 @@ fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservatio
         seed: spec.seed,
         episode_id: live.episode_id.clone(),
         parse_errors,
+        probe_errors: Vec::new(),
         metadata: live.graded.clone().unwrap_or_default(),
     }
+}
+
+/// One step's forecast as read from its reply, with the constant-velocity
+/// forecast of the observation it answered.
+struct ReadForecast {
+    turn: u32,
+    time_s: f64,
+    forecast: Result<crate::forecast::Forecast, crate::action::ForecastParseError>,
+    constant_velocity: Vec<crate::forecast::AtHorizons>,
+}
+
+impl ReadForecast {
+    fn stated(self) -> ForecastTurn {
+        ForecastTurn {
+            turn: self.turn,
+            time_s: self.time_s,
+            forecast: self.forecast.ok(),
+            constant_velocity: self.constant_velocity,
+        }
+    }
+}
+
+fn read_forecast(episode: &Episode, reply: &str) -> ReadForecast {
+    let o = episode.observation();
+    let forecast = if reply.len() > MAX_REPLY_BYTES {
+        Err(crate::action::ForecastParseError::NoAnswer)
+    } else {
+        crate::forecast::parse_answer(reply, episode.spec().scenario)
+    };
+    ReadForecast { turn: o.turn, time_s: o.time_s, forecast, constant_velocity: crate::forecast::constant_velocity(o) }
+}
+
+/// The forecast probe's scores of a finished episode (`forecast` in the
+/// terminal grades): the episode's sums, and its means and skill.
+fn forecast_grades(episode: &Episode, forecasts: &[ForecastTurn]) -> Value {
+    let spec = episode.spec();
+    let lets_you_go = episode.disposition().ego_should_go();
+    let evidence = episode.timing().evidence_turn;
+    let m = ForecastMetrics::compute(spec.scenario, forecasts, episode.forecast_truth(), lets_you_go, evidence);
+    json!({ "episode": m, "summary": crate::forecast::ForecastSummary::of(std::iter::once(&m)) })
 }
 
 /// The terminal metadata: the outcome, the grades, the evidence timing,
@@ -592,6 +703,7 @@ mod tests {
             seed: Some(11),
             episode_id: None,
             teacher: None,
+            forecast: false,
         };
         let first = session.reset(&set, request, || unreachable!(), || "ep".to_string());
         let mut episode = Episode::new(set.get(ScenarioKind::PedestrianFeint), Tier::T2, 11);
@@ -641,6 +753,7 @@ mod tests {
                 seed: Some(seed),
                 episode_id: None,
                 teacher: Some(PolicyKind::Expert),
+                forecast: false,
             };
             let mut reply = session.reset(&set, request, || unreachable!(), || "ep".into());
             let mut expert = PolicyKind::Expert.build();
@@ -660,6 +773,57 @@ mod tests {
         assert!(won >= 19, "{won} of 20");
     }
 
+    /// The rules forecaster's forecast of a reply's public observation, as
+    /// a reply's `forecast` field.
+    fn rules_forecast(reply: &StepReply) -> Value {
+        use crate::forecast::{DOES_NOT_KEY, Forecaster, LETS_YOU_GO_KEY};
+        let f = crate::forecast::rules::RulesForecaster.forecast(reply.observation.public.as_ref().unwrap());
+        json!({ LETS_YOU_GO_KEY: f.lets_you_go, DOES_NOT_KEY: f.does_not })
+    }
+
+    #[test]
+    fn a_forecast_probe_episode_reads_each_replys_forecast_apart_and_grades_it_at_the_end() {
+        use crate::policy::PolicyKind;
+        let set = ScenarioSet::default();
+        let refused = ResetRequest::from_fields(&data(json!({"probe": "belief"})));
+        assert!(matches!(refused, Err(SessionError::Invalid(_))), "{refused:?}");
+        let request =
+            ResetRequest::from_fields(&data(json!({"scenario": "yield_standoff", "seed": 3, "probe": "forecast"})))
+                .unwrap();
+        let mut session = Session::default();
+        let mut reply = session.reset(&set, request, || 0, || "ep".into());
+        let instructions = reply.observation.instructions.clone().unwrap();
+        assert!(instructions.starts_with(SYSTEM_PROMPT) && instructions.contains(crate::forecast::LETS_YOU_GO_KEY));
+        let mut expert = PolicyKind::Expert.build();
+        let mut turn = 0;
+        while !reply.done {
+            let mut payload = serde_json::to_value(expert.act(reply.observation.public.as_ref().unwrap())).unwrap();
+            // Every fifth reply without its forecast: a probe error only.
+            if turn % 5 != 4 {
+                payload["forecast"] = rules_forecast(&reply);
+            }
+            reply = session.step(&payload).unwrap();
+            assert!(reply.observation.parse_errors.is_empty(), "{:?}", reply.observation.parse_errors);
+            assert_eq!(reply.observation.probe_errors.len(), usize::from(turn % 5 == 4), "turn {turn}");
+            turn += 1;
+        }
+        let forecast = &reply.metadata.as_ref().unwrap()["forecast"];
+        let missing = forecast["episode"]["probe_errors"].as_u64().unwrap();
+        assert_eq!(missing, (turn / 5) as u64, "{forecast}");
+        // The rules forecaster, from the rounded observation, is within
+        // centimetres of where the car was (here, a car driving through).
+        let error = forecast["summary"]["error_true_m"][1].as_f64().unwrap();
+        assert!(error < 0.2, "{forecast}");
+        // A run without the probe grades no forecast.
+        let plain = ResetRequest::from_fields(&data(json!({"seed": 3}))).unwrap();
+        let mut session = Session::default();
+        let mut reply = session.reset(&set, plain, || 0, || "ep".into());
+        while !reply.done {
+            reply = session.step(&json!({"maneuver": "proceed", "acceleration": 0.5})).unwrap();
+        }
+        assert!(reply.metadata.unwrap().get("forecast").is_none());
+    }
+
     /// Everything a client can read (the reset and step replies, the
     /// state) is byte-identical under both dispositions of a seed until the
     /// evidence turn, for every scenario and tier, driven by the expert
@@ -674,16 +838,18 @@ mod tests {
                 for seed in 0..25u64 {
                     for expert in [true, false] {
                         let [a, b] = kind.dispositions();
+                        // Half the episodes with the forecast probe: its
+                        // instructions and probe errors are on the screen too.
+                        let forecast = seed % 2 == 0;
                         let mut sessions = [a, b].map(|d| {
                             let mut s = Session::default();
                             // Every teacher in turn: its move is on the screen too.
                             let teacher = PolicyKind::ALL[seed as usize % PolicyKind::ALL.len()];
-                            let first = s.start(
-                                Episode::with_disposition(set.get(kind), tier, seed, d),
-                                View::Full,
-                                "ep".into(),
-                                Some(teacher),
-                            );
+                            let mut episode = Episode::with_disposition(set.get(kind), tier, seed, d);
+                            if forecast {
+                                episode.record_forecast_truth(set.get(kind));
+                            }
+                            let first = s.start(episode, View::Full, "ep".into(), Some(teacher), forecast);
                             (s, first)
                         });
                         // The evidence turn of the first disposition's play.
@@ -705,7 +871,10 @@ mod tests {
                             } else {
                                 Action::new(crate::action::Maneuver::Proceed, if turn % 3 == 0 { 0.0 } else { 0.7 })
                             };
-                            let payload = serde_json::to_value(action).unwrap();
+                            let mut payload = serde_json::to_value(action).unwrap();
+                            if forecast && turn % 2 == 0 {
+                                payload["forecast"] = rules_forecast(ra);
+                            }
                             for (s, r) in sessions.iter_mut() {
                                 *r = s.step(&payload).unwrap();
                             }

@@ -5,32 +5,27 @@
 //! The system prompt itself is [`crate::instructions::SYSTEM_PROMPT`], the
 //! one every front end sends.
 
-use crate::belief::Probe;
 use crate::instructions::SYSTEM_PROMPT;
 use crate::llm::{ChatMessage, Role};
+use crate::probe::Probe;
 use crate::rundir::HistoryWindow;
 use crate::scenario::ScenarioKind;
 
-/// The system prompt of one episode: [`SYSTEM_PROMPT`], plus the belief
-/// question of its scenario when the run probes beliefs.
+/// The system prompt of one episode: [`SYSTEM_PROMPT`], plus each probe's
+/// paragraph for its scenario (the one composition every front end uses).
 pub fn system_prompt(probe: Probe, kind: ScenarioKind) -> String {
-    match probe {
-        Probe::None => SYSTEM_PROMPT.to_string(),
-        Probe::Belief => format!("{SYSTEM_PROMPT}{}", crate::belief::prompt_paragraph(kind)),
-    }
+    crate::probe::system_prompt(probe, kind)
 }
 
 /// The hash of every system prompt a run may send (part of the run's
 /// identity): the plain prompt's alone without a probe, so runs made before
 /// probes existed keep their hash.
 pub fn prompt_hash(probe: Probe) -> String {
-    match probe {
-        Probe::None => crate::hash::fnv1a64_hex(SYSTEM_PROMPT),
-        Probe::Belief => {
-            let all: Vec<String> = ScenarioKind::ALL.iter().map(|&k| system_prompt(probe, k)).collect();
-            crate::hash::fnv1a64_hex(&all.join("\u{0}"))
-        }
+    if probe.is_none() {
+        return crate::hash::fnv1a64_hex(SYSTEM_PROMPT);
     }
+    let all: Vec<String> = ScenarioKind::ALL.iter().map(|&k| system_prompt(probe, k)).collect();
+    crate::hash::fnv1a64_hex(&all.join("\u{0}"))
 }
 
 /// The conversation so far: earlier (scene, answer) pairs.
@@ -124,7 +119,7 @@ mod tests {
     fn the_prompt_hints_at_no_disposition() {
         assert_eq!(crate::belief::check_neutral(SYSTEM_PROMPT), Ok(()));
         for kind in crate::scenario::ScenarioKind::ALL {
-            for probe in [Probe::None, Probe::Belief] {
+            for probe in ["none", "belief", "forecast", "belief,forecast"].map(|p| p.parse::<Probe>().unwrap()) {
                 assert_eq!(crate::belief::check_neutral(&system_prompt(probe, kind)), Ok(()), "{kind} {probe:?}");
             }
         }

@@ -4,11 +4,12 @@
 use super::prompt::History;
 use super::{AtomicU32, Ctx, now_rfc3339, prompt};
 use crate::action::{parse_action, parse_belief};
-use crate::belief::{BeliefMetrics, BeliefTurn, Probe};
-use crate::episode::{Episode, EpisodeRecord};
+use crate::belief::{BeliefMetrics, BeliefTurn};
+use crate::episode::{Episode, EpisodeRecord, ForecastTruth};
+use crate::forecast::{ForecastMetrics, ForecastTurn};
 use crate::llm::{ChatMessage, ChatRequest, Completion, LlmError, Role};
 use crate::observation::render_scene;
-use crate::rundir::record::{EpisodeKey, EpisodeScalars, Provenance, RolloutRecord, TurnRecord};
+use crate::rundir::record::{EpisodeKey, EpisodeScalars, ProbeScores, Provenance, RolloutRecord, TurnRecord};
 use std::sync::atomic::Ordering::Relaxed;
 use std::time::Instant;
 /// A finished episode's summary scalars and its line, or why it did not finish.
@@ -49,12 +50,20 @@ pub(super) fn parse_reply(completion: &Completion, max_reply_bytes: usize) -> cr
 pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     let opts = &ctx.options;
     let started = Instant::now();
-    let mut episode = Episode::new(opts.scenario_set.get(key.scenario), key.tier, key.seed);
+    let config = opts.scenario_set.get(key.scenario);
+    let mut episode = Episode::new(config, key.tier, key.seed);
     if opts.trajectories {
         episode.record_trajectory();
     }
+    if opts.config.probe.forecast {
+        episode.record_forecast_truth(config);
+    }
+    // The constant-velocity forecast of every turn (the forecast's floor),
+    // from the observation the model saw.
+    let mut constant_velocity = Vec::new();
     let mut history = History::default();
     let mut turns: Vec<TurnRecord> = Vec::new();
+    let mut times: Vec<f64> = Vec::new();
     let retries = AtomicU32::new(0);
     // Priced per turn, so turns without usage are priced at their estimate.
     let mut cost: Option<f64> = opts.pricing.as_ref().map(|_| 0.0);
@@ -99,13 +108,8 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         ctx.counters.tokens.fetch_add(tokens, Relaxed);
         ctx.counters.turns.fetch_add(1, Relaxed);
         let ideal_belief = episode.ideal_belief();
-        let (belief, belief_error) = match opts.config.probe {
-            Probe::None => (None, None),
-            Probe::Belief => match parse_belief(completion.content.as_deref().unwrap_or("")) {
-                Ok(b) => (Some(b), None),
-                Err(e) => (None, Some(e)),
-            },
-        };
+        let probed = ProbeAnswers::read(opts.config.probe, completion.content.as_deref().unwrap_or(""), &episode);
+        let time_s = episode.observation().time_s;
         episode.step(parsed.action);
         let answer = prompt::history_answer(&completion.answer);
         let truncated = completion.finish_reason.as_deref() == Some("length");
@@ -129,15 +133,80 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             attempts: completion.attempts,
             after_resolution: false,
             ideal_belief: Some(ideal_belief),
-            belief,
-            belief_error,
+            belief: probed.belief,
+            belief_error: probed.belief_error,
+            forecast: probed.forecast,
+            forecast_error: probed.forecast_error,
         });
+        times.push(time_s);
+        constant_velocity.extend(probed.constant_velocity);
         history.push(scene, answer);
     }
+    let forecast_truth = episode.forecast_truth().to_vec();
     let graded = episode.finish();
-    let record = rollout_record(ctx, key, graded, turns, (retries.load(Relaxed), cost), started);
+    let forecast = opts
+        .config
+        .probe
+        .forecast
+        .then(|| forecast_metrics(&graded, &turns, &times, constant_velocity, &forecast_truth));
+    let forecast = (forecast, forecast_truth);
+    let record = rollout_record(ctx, key, graded, turns, forecast, (retries.load(Relaxed), cost), started);
     let line = serde_json::to_string(&record).expect("a rollout record serialises");
     Ok((EpisodeScalars::from(&record), line))
+}
+
+/// What one reply says for the run's probes, each read apart from the
+/// action (a missing or malformed field is that probe's parse error).
+struct ProbeAnswers {
+    belief: Option<f64>,
+    belief_error: Option<crate::action::BeliefParseError>,
+    forecast: Option<crate::forecast::Forecast>,
+    forecast_error: Option<crate::action::ForecastParseError>,
+    /// The constant-velocity forecast from the observation the reply
+    /// answered (the forecast's floor), when the run probes forecasts.
+    constant_velocity: Option<Vec<crate::forecast::AtHorizons>>,
+}
+
+impl ProbeAnswers {
+    fn read(probe: crate::probe::Probe, reply: &str, episode: &Episode) -> ProbeAnswers {
+        let (belief, belief_error) = match probe.belief.then(|| parse_belief(reply)) {
+            Some(Ok(b)) => (Some(b), None),
+            Some(Err(e)) => (None, Some(e)),
+            None => (None, None),
+        };
+        let kind = episode.spec().scenario;
+        let (forecast, forecast_error) = match probe.forecast.then(|| crate::forecast::parse_answer(reply, kind)) {
+            Some(Ok(f)) => (Some(f), None),
+            Some(Err(e)) => (None, Some(e)),
+            None => (None, None),
+        };
+        let constant_velocity = probe.forecast.then(|| crate::forecast::constant_velocity(episode.observation()));
+        ProbeAnswers { belief, belief_error, forecast, forecast_error, constant_velocity }
+    }
+}
+
+/// The forecast metrics of a finished episode: each turn's stated forecast
+/// (at the time of its observation) against where the road users were.
+fn forecast_metrics(
+    graded: &EpisodeRecord,
+    turns: &[TurnRecord],
+    times: &[f64],
+    constant_velocity: Vec<Vec<crate::forecast::AtHorizons>>,
+    truth: &[ForecastTruth],
+) -> ForecastMetrics {
+    let stated: Vec<ForecastTurn> = turns
+        .iter()
+        .zip(times)
+        .zip(constant_velocity)
+        .map(|((t, &time_s), cv)| ForecastTurn {
+            turn: t.turn,
+            time_s,
+            forecast: t.forecast.clone(),
+            constant_velocity: cv,
+        })
+        .collect();
+    let lets_you_go = graded.disposition.ego_should_go();
+    ForecastMetrics::compute(graded.spec.scenario, &stated, truth, lets_you_go, graded.timing.evidence_turn)
 }
 
 /// Tokens of one turn: the reported total, or (no usage reported) an
@@ -169,10 +238,11 @@ pub(super) fn rollout_record(
     key: EpisodeKey,
     graded: EpisodeRecord,
     turns: Vec<TurnRecord>,
+    (forecast, forecast_truth): (Option<ForecastMetrics>, Vec<ForecastTruth>),
     (retries, cost_usd): (u32, Option<f64>),
     started: Instant,
 ) -> RolloutRecord {
-    let belief = (ctx.options.config.probe == Probe::Belief).then(|| {
+    let belief = ctx.options.config.probe.belief.then(|| {
         let turns: Vec<BeliefTurn> = turns
             .iter()
             .zip(&graded.decisions)
@@ -194,5 +264,5 @@ pub(super) fn rollout_record(
         wall_ms: started.elapsed().as_millis() as u64,
         finished_at: now_rfc3339(),
     };
-    RolloutRecord::assemble(key, graded, turns, belief, from)
+    RolloutRecord::assemble(key, graded, turns, ProbeScores { belief, forecast, forecast_truth }, from)
 }

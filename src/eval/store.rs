@@ -248,6 +248,7 @@ mod tests {
             decision_correctness: 1.0,
             timing: Default::default(),
             belief: None,
+            forecast: None,
             turns_taken: 10,
             parse_error_turns: 0,
             tokens: 100,

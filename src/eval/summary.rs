@@ -145,12 +145,39 @@ pub(crate) fn belief_table(summary: &Summary) -> Option<Table> {
     (!probed.is_empty()).then_some(t)
 }
 
+/// The forecast table of a probe run: one row per (scenario, tier) with
+/// forecast metrics (None when no cell has any).
+pub(crate) fn forecast_table(summary: &Summary) -> Option<Table> {
+    use crate::forecast::ForecastSummary;
+    type Probed<'a> = (&'a CellSummary, &'a ForecastSummary);
+    let probed: Vec<Probed> = summary.cells.iter().filter_map(|c| Some((c, c.metrics.forecast.as_ref()?))).collect();
+    fn cell<'a>(p: &'a Probed<'_>) -> &'a CellSummary {
+        p.0
+    }
+    fn forecast<'a>(p: &'a Probed<'_>) -> &'a ForecastSummary {
+        p.1
+    }
+    let fields: Vec<Field<Probed>> = [
+        key_fields().into_iter().map(|f| f.of(cell)).collect(),
+        vec![Field::new(Column::new("n", "episodes"), |(c, _): &Probed| Cell::Int(c.metrics.episodes as u64))],
+        crate::forecast::metrics::fields().into_iter().map(|f| f.of(forecast)).collect(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let mut t = Table::of("forecast", "Forecast probe", &fields, &probed);
+    t.note(crate::forecast::metrics::TABLE_NOTE);
+    (!probed.is_empty()).then_some(t)
+}
+
 /// `summary.md` and the table printed at the end of a run: the model, the
-/// leaderboard in Markdown, the belief table of a probe run, and the totals.
+/// leaderboard in Markdown, the probe tables of a probe run, and the totals.
 pub fn render(summary: &Summary) -> String {
-    let belief = belief_table(summary)
+    let belief = [belief_table(summary), forecast_table(summary)]
+        .into_iter()
+        .flatten()
         .map(|t| format!("\n{}", MarkdownExporter { heading_level: 2 }.render(&t)))
-        .unwrap_or_default();
+        .collect::<String>();
     format!(
         "model: {}\n\n{}{belief}\nmean success over cells: {}; {} episodes scored, {} missing\n\
          tokens: {} prompt ({} cached, {}), {} completion ({} reasoning)\n{}\n",
@@ -205,6 +232,7 @@ mod tests {
             decision_correctness: 0.5,
             timing: Default::default(),
             belief: None,
+            forecast: None,
             turns_taken: 10,
             parse_error_turns,
             tokens: 1000,

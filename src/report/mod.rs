@@ -13,6 +13,7 @@
 pub mod belief;
 pub mod boot;
 pub mod drill;
+pub mod forecast;
 pub mod html;
 pub mod load;
 pub mod paired;
@@ -141,6 +142,10 @@ pub struct Report {
     /// Belief-probe runs: one row per (model, scenario, tier).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub belief: Vec<belief::BeliefRow>,
+    /// Forecast-probe runs: one row per (model, scenario, tier), then the
+    /// reference forecasters' rows on the same cells.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub forecast: Vec<forecast::ForecastRow>,
     /// Evidence timing: one row per (model, scenario) in the leaderboard
     /// scope (none for runs written before evidence timing was recorded).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -283,6 +288,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     let paired = paired::all_pairs(&ordered, &tiers, opts.resamples, opts.seed);
     let pass_k = passk::pass_k_rows(&ordered, &tiers);
     let belief = belief::rows(&ordered);
+    let forecast = forecast::rows(&ordered);
     let timing = timing::rows(&ordered, &refs, &tiers);
     // Named episodes first, so the drill-down carries their transcripts too.
     let picked = pick::resolve(&opts.episodes, &data)?;
@@ -343,6 +349,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         paired,
         pass_k,
         belief,
+        forecast,
         timing,
         references: refs,
         plots,
@@ -372,6 +379,9 @@ impl Report {
         }
         if !self.belief.is_empty() {
             t.push(belief::table(&self.belief));
+        }
+        if !self.forecast.is_empty() {
+            t.push(forecast::table(&self.forecast));
         }
         for table in &mut t {
             self.mark_incomplete(table);

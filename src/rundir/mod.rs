@@ -168,8 +168,8 @@ pub struct RunConfig {
     /// The probe added to every answer (`--probe belief`): a probe run is
     /// its own experiment. Absent without a probe (earlier runs' hashes
     /// are unchanged).
-    #[serde(default, skip_serializing_if = "crate::belief::Probe::is_none")]
-    pub probe: crate::belief::Probe,
+    #[serde(default, skip_serializing_if = "crate::probe::Probe::is_none")]
+    pub probe: crate::probe::Probe,
     /// `negotiator play`: a person at the terminal, and what they were
     /// shown and allowed (each setting is its own experiment). Absent for
     /// models (earlier runs' hashes are unchanged).
@@ -520,7 +520,7 @@ mod tests {
             prompt_hash: "p".into(),
             scenarios_hash: "s".into(),
             endpoint: "http://127.0.0.1:1/v1".into(),
-            probe: crate::belief::Probe::None,
+            probe: crate::probe::Probe::NONE,
             human: None,
         }
     }
@@ -555,7 +555,7 @@ mod tests {
         b.request_params.insert("temperature".into(), Value::from(0.7));
         b.request_params.insert("top_p".into(), Value::from(0.9));
         b.history = HistoryWindow::Last(4);
-        b.probe = crate::belief::Probe::Belief;
+        b.probe = crate::probe::Probe::BELIEF;
         let d = a.diff(&b);
         assert_eq!(d.len(), 4, "{d:?}");
         assert!(d.iter().any(|l| l == "probe: (unset) -> \"belief\""), "{d:?}");

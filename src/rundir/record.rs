@@ -5,6 +5,7 @@
 use crate::action::{Action, ActionParseError};
 use crate::belief::BeliefMetrics;
 use crate::episode::{EpisodeRecord, EvidenceTiming, Outcome, TrajectoryPoint};
+use crate::forecast::ForecastMetrics;
 use crate::grading::Diagnostics;
 use crate::llm::Usage;
 use crate::scenario::{Disposition, ScenarioKind, Tier};
@@ -88,6 +89,12 @@ pub struct TurnRecord {
     pub belief: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub belief_error: Option<crate::action::BeliefParseError>,
+    /// Forecast-probe runs: the forecast the reply stated, or why none
+    /// could be read (a probe parse error; the action is unaffected).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forecast: Option<crate::forecast::Forecast>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forecast_error: Option<crate::action::ForecastParseError>,
 }
 
 /// One finished episode. The scalars come before the transcript (`turns`),
@@ -116,6 +123,9 @@ pub struct RolloutRecord {
     /// Belief-probe runs: the episode's belief metrics.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub belief: Option<BeliefMetrics>,
+    /// Forecast-probe runs: the episode's forecast metrics.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forecast: Option<ForecastMetrics>,
     pub diagnostics: Diagnostics,
     /// Decisions taken.
     pub turns_taken: u32,
@@ -150,6 +160,19 @@ pub struct RolloutRecord {
     /// Plan-view positions at every decision (for trajectory plots).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trajectory: Option<Vec<TrajectoryPoint>>,
+    /// Forecast-probe runs, privileged: where the forecast's road users
+    /// were at every decision, in the episode and in its twin under the
+    /// other disposition (what the forecasts were scored against).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub forecast_truth: Vec<crate::episode::ForecastTruth>,
+}
+
+/// The probes' scores of one episode (each None without its probe).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ProbeScores {
+    pub belief: Option<BeliefMetrics>,
+    pub forecast: Option<ForecastMetrics>,
+    pub forecast_truth: Vec<crate::episode::ForecastTruth>,
 }
 
 /// What a rollout line says beyond the episode itself: who played it,
@@ -178,7 +201,7 @@ impl RolloutRecord {
         key: EpisodeKey,
         graded: EpisodeRecord,
         mut turns: Vec<TurnRecord>,
-        belief: Option<BeliefMetrics>,
+        probes: ProbeScores,
         from: Provenance,
     ) -> RolloutRecord {
         for (t, d) in turns.iter_mut().zip(&graded.decisions) {
@@ -200,7 +223,8 @@ impl RolloutRecord {
             reward: graded.grades.reward,
             decision_correctness: graded.grades.decision_correctness,
             timing: graded.timing,
-            belief,
+            belief: probes.belief,
+            forecast: probes.forecast,
             diagnostics: graded.grades.diagnostics,
             turns_taken: turns.len() as u32,
             // A cut-off reply is counted as truncated, not as a parse error.
@@ -219,6 +243,7 @@ impl RolloutRecord {
             finished_at: from.finished_at,
             turns,
             trajectory: graded.trajectory,
+            forecast_truth: probes.forecast_truth,
         }
     }
 }
@@ -242,6 +267,8 @@ pub struct EpisodeScalars {
     pub timing: EvidenceTiming,
     #[serde(default)]
     pub belief: Option<BeliefMetrics>,
+    #[serde(default)]
+    pub forecast: Option<ForecastMetrics>,
     pub turns_taken: u32,
     pub parse_error_turns: u32,
     pub tokens: u64,
@@ -287,6 +314,7 @@ impl From<&RolloutRecord> for EpisodeScalars {
             decision_correctness: r.decision_correctness,
             timing: r.timing,
             belief: r.belief,
+            forecast: r.forecast,
             turns_taken: r.turns_taken,
             parse_error_turns: r.parse_error_turns,
             tokens: r.tokens,

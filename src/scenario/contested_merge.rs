@@ -116,6 +116,8 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     place_fields: &["ego_to_merge_m", "ramp_left_m"],
     place_text: |n| format!("{} m to the merge point, {} m of ramp left", n[0], n[1]),
     tracks_relative_to_ego: true,
+    position_per_velocity: 1.0,
+    forecast_tracks: 2,
     situation: "On-ramp merging into a single through lane; the ramp ends, so you must merge before it runs out. A lane car is alongside and another car follows it. Cars (yours too) are 4.8 m long. Positions of lane cars are centre to centre along the road relative to you (positive = ahead of you; beyond +/-4.8 m a car is wholly ahead or behind). Your body starts to overlap the lane at the merge point. The through lane has its own speed limit: the one on your line becomes it once you are in the lane.",
     track_labels: &[
         TrackLabel { now: "Lane car", history: "Lane car over the last 2 s (oldest first)", field: "lane_car" },
@@ -127,6 +129,7 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     ],
     track_now: |position, velocity| format!("at {position} m (relative to you), speed {velocity} m/s"),
     belief_question: "the lane car will let you merge into the lane ahead of it",
+    forecast_subject: "the lane car and the car behind it will be, each as its position in metres along the road from where you are now (positive = ahead of you),",
     leaderboard_dc: None,
     builtin_file: ("scenarios/contested_merge.toml", include_str!("../../scenarios/contested_merge.toml")),
     load: super::load::<MergeParams>,
@@ -572,11 +575,8 @@ impl MergeWorld {
         let p = &self.params.lane;
         let rel = lane.s - ego.s;
         let alongside = !self.ego_in_lane(ego) && rel < CAR_LENGTH && rel > -(CAR_LENGTH + 2.0);
-        let target = if alongside {
-            (ego.v - DENY_LEVEL_GAIN * rel).clamp(self.cruise, self.top_speed())
-        } else {
-            self.cruise
-        };
+        let target =
+            if alongside { (ego.v - DENY_LEVEL_GAIN * rel).clamp(self.cruise, self.top_speed()) } else { self.cruise };
         track_speed(lane.v, target, p.deny_accel_mps2, EASE_BACK_MPS2, dt)
     }
 
@@ -597,8 +597,7 @@ impl MergeWorld {
             // if behind), however it moves, so that it cannot cut in ahead.
             let behind = (-rel).max(0.0);
             let beside = rel < CAR_LENGTH + 1.0;
-            let pace =
-                (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.top_speed());
+            let pace = (ego.v + p.pass_margin_mps + 0.5 * behind).max(p.pass_speed_mps).min(self.top_speed());
             // Drawing level with an ego beside it is brisk. Wholly ahead of
             // the ego it holds its pace until it has cleared the merge
             // point (slowing with an ego that slows), however the ego behind
@@ -651,8 +650,7 @@ impl MergeWorld {
         if rel > -1.0 || self.ego_in_lane(ego) {
             self.phase = Phase::Hold;
         }
-        let target =
-            (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.top_speed());
+        let target = (ego.v - DENY_LEVEL_GAIN * rel).max(self.cruise).min(self.top_speed());
         track_speed(lane.v, target, self.params.tier3.close_accel_mps2, CLOSE_BRAKE_MPS2, dt)
     }
 
@@ -829,6 +827,10 @@ impl World for MergeWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn true_positions(&self, ego: &Body) -> Vec<f64> {
+        vec![self.lane_car.s - ego.s, self.follower.s - ego.s]
     }
 
     fn turns_taken(&self) -> u32 {

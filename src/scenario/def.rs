@@ -54,12 +54,27 @@ pub(crate) struct ScenarioDef {
     /// The road users' positions are measured from the ego (they move with
     /// its travel), not from a fixed point of the road.
     pub tracks_relative_to_ego: bool,
+    /// How a road user's position changes with its velocity as the scene
+    /// states both: +1 where the velocity is along the position's axis,
+    /// -1 where a position is a distance the road user closes (the
+    /// intersection's distance to the conflict zone). The forecast probe's
+    /// constant-velocity reference moves a position by this times
+    /// velocity times the horizon.
+    pub position_per_velocity: f64,
+    /// How many of the scene's road users, in its order, the forecast probe
+    /// asks about: the other road user (the merge: the lane car and the
+    /// car behind it).
+    pub forecast_tracks: usize,
     /// The current sample of a road user, e.g. "21.0 m to the conflict
     /// zone, speed 9.4 m/s", from its formatted position and velocity.
     pub track_now: fn(&str, &str) -> String,
     /// The belief probe's question: names the road user and the place as
     /// the scene text does, and says nothing about how it may behave.
     pub belief_question: &'static str,
+    /// The forecast probe's subject: which road users it asks about and on
+    /// what axis, worded as the scene text words them and saying nothing
+    /// about how they may behave.
+    pub forecast_subject: &'static str,
     /// What tiers 2 and 3 change, in a few words (figure captions).
     pub tier_mechanics: [&'static str; 2],
     /// The short label of the leaderboard column that shows this

@@ -80,6 +80,12 @@ impl ScenarioKind {
         self.def().dispositions
     }
 
+    /// Whether the scene measures the road users' positions from the ego
+    /// (they move with its travel), not from a fixed point of the road.
+    pub fn positions_relative_to_ego(self) -> bool {
+        self.def().tracks_relative_to_ego
+    }
+
     /// The scene text's "Situation:" paragraph.
     pub(crate) fn situation(self) -> &'static str {
         self.def().situation

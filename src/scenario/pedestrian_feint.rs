@@ -107,6 +107,8 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     place_fields: &["ego_to_crosswalk_m"],
     place_text: |n| format!("{} m to the crosswalk", n[0]),
     tracks_relative_to_ego: false,
+    position_per_velocity: 1.0,
+    forecast_tracks: 1,
     situation: "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 7.0 = far kerb; with its centre between 0.5 and 3.0 its body overlaps your car's path. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.",
     track_labels: &[TrackLabel {
         now: "Pedestrian",
@@ -115,6 +117,7 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     }],
     track_now: |position, velocity| format!("at {position} m (lateral), velocity {velocity} m/s"),
     belief_question: "the pedestrian will let you drive past the crosswalk before stepping into your path",
+    forecast_subject: "the pedestrian will be, as its lateral position in metres from the near kerb as the scene measures it,",
     leaderboard_dc: None,
     builtin_file: ("scenarios/pedestrian_feint.toml", include_str!("../../scenarios/pedestrian_feint.toml")),
     load: super::load::<PedestrianParams>,
@@ -620,6 +623,10 @@ impl World for PedestrianWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn true_positions(&self, _ego: &Body) -> Vec<f64> {
+        vec![self.lat]
     }
 
     fn turns_taken(&self) -> u32 {

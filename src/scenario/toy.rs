@@ -34,8 +34,11 @@ static DEF: ScenarioDef = ScenarioDef {
     place_text: |n| format!("{} m to the zone", n[0]),
     track_labels: &[TrackLabel { now: "Crossing car", history: "Crossing car before", field: "car" }],
     tracks_relative_to_ego: false,
+    position_per_velocity: -1.0,
+    forecast_tracks: 1,
     track_now: |position, velocity| format!("{position} m to the zone, speed {velocity} m/s"),
     belief_question: "the crossing car will let you through first",
+    forecast_subject: "the crossing car will be, as its distance in metres to the conflict zone,",
     tier_mechanics: ["the same", "the same"],
     leaderboard_dc: None,
     builtin_file: ("tests/fixtures/toy_crossing.toml", TOML),
@@ -153,6 +156,10 @@ impl World for ToyWorld {
     fn observe(&mut self, ego: &Body) -> Scene {
         let now = Sample { position_m: -HALF_ZONE - self.car.s, velocity_mps: self.car.v };
         Scene::new(ScenarioKind(&DEF), &[-HALF_ZONE - ego.s], &[self.history.track(now)]).expect("the toy's layout")
+    }
+
+    fn true_positions(&self, _ego: &Body) -> Vec<f64> {
+        vec![-HALF_ZONE - self.car.s]
     }
 
     fn revealed(&self) -> bool {

@@ -68,6 +68,8 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     place_fields: &["ego_to_conflict_m"],
     place_text: |n| format!("{} m to the conflict zone", n[0]),
     tracks_relative_to_ego: false,
+    position_per_velocity: -1.0,
+    forecast_tracks: 1,
     situation: "Unsignalled T-intersection. You approach on the stem and must cross the conflict zone; two cars approach one behind the other on the crossing road. There are no signs, no signals and no agreed right of way: read the other driver's intent from its motion. Cars (yours too) are 4.8 m long, 1.9 m wide. Distances to the conflict zone are from the front bumper to the zone's near edge; negative means already inside or past it (any car has fully crossed below -6.7 m).",
     track_labels: &[
         TrackLabel { now: "Other car", history: "Other car over the last 2 s (oldest first)", field: "other" },
@@ -79,6 +81,7 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     ],
     track_now: |position, velocity| format!("{position} m to the conflict zone, speed {velocity} m/s"),
     belief_question: "the other car will let you pass through the conflict zone before it",
+    forecast_subject: "the other car (the first on the crossing road) will be, as its distance in metres to the conflict zone as the scene measures it,",
     leaderboard_dc: Some("yield"),
     builtin_file: ("scenarios/yield_standoff.toml", include_str!("../../scenarios/yield_standoff.toml")),
     load: super::load::<YieldParams>,
@@ -525,6 +528,10 @@ impl World for YieldWorld {
 
     fn revealed(&self) -> bool {
         self.revealed
+    }
+
+    fn true_positions(&self, _ego: &Body) -> Vec<f64> {
+        vec![-HALF_ZONE - self.other.s]
     }
 
     fn turns_taken(&self) -> u32 {

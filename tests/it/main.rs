@@ -7,6 +7,7 @@ mod docs;
 mod envserver;
 mod eval;
 mod faults;
+mod forecast;
 mod inspect;
 mod layers;
 mod play;

@@ -66,16 +66,16 @@ def samples(url: str, scenario: str, tier: str | int, seeds: int, seed: int) -> 
 
 
 @solver
-def drive(base_url: str | None = None) -> Solver:
+def drive(base_url: str | None = None, probe: str = "none") -> Solver:
     """Play the sample's episode: reset env-server with its (scenario, tier,
-    seed), then per decision the scene as a user message, `generate`, and the
-    reply to env-server, until the episode ends."""
+    seed) and `probe`, then per decision the scene as a user message,
+    `generate`, and the reply to env-server, until the episode ends."""
 
     async def solve(state: TaskState, generate: Generate) -> TaskState:
         url = server_url(base_url)
         md = state.metadata
         async with httpx.AsyncClient(base_url=url, timeout=60) as http:
-            reset = {"scenario": md["scenario"], "tier": md["tier"], "seed": md["seed"], "view": "text"}
+            reset = {"scenario": md["scenario"], "tier": md["tier"], "seed": md["seed"], "view": "text", "probe": probe}
             reply = await post(http, "/reset", reset)
             observation = reply["observation"]
             episode_id = observation["episode_id"]
@@ -144,6 +144,7 @@ def negotiator(
     seeds: int = 200,
     seed: int = 0,
     base_url: str | None = None,
+    probe: str = "none",
 ) -> Task:
     """negotiator: read another road user's hidden intent from its motion and
     drive accordingly.
@@ -155,10 +156,14 @@ def negotiator(
         seed: the first seed, as `negotiator eval --seed`.
         base_url: a running `negotiator env-server`; without one, a local
             env-server is started (NEGOTIATOR_BIN or `negotiator` on PATH).
+        probe: `forecast` asks every answer for a forecast as `negotiator
+            eval --probe forecast` does (env-server words the question,
+            reads the forecast and scores it: the score's metadata carries
+            `forecast`); `none` (the default) asks for the action only.
     """
     url = server_url(base_url)
     return Task(
         dataset=MemoryDataset(samples(url, scenario, tier, seeds, seed), name="negotiator"),
-        solver=drive(url),
+        solver=drive(url, probe),
         scorer=episode_grades(),
     )
