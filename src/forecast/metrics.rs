@@ -19,6 +19,27 @@ use crate::episode::ForecastTruth;
 use crate::scenario::ScenarioKind;
 use serde::{Deserialize, Serialize};
 
+/// The decisions from the evidence turn that the error-by-turn figure
+/// shows (the ends gather every earlier and later one).
+pub const OFFSETS: std::ops::RangeInclusive<i32> = -4..=6;
+const OFFSET_BINS: usize = 11;
+
+/// One decision offset from the evidence turn: the 1 s forecasts made then,
+/// summed (episodes with an evidence turn only).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct OffsetSums {
+    pub points: u32,
+    pub error_true_sum_m: f64,
+    pub error_other_sum_m: f64,
+    pub cv_error_true_sum_m: f64,
+}
+
+/// The bin of a decision `offset` turns from the evidence turn.
+fn offset_bin(offset: i64) -> usize {
+    let (lo, hi) = (i64::from(*OFFSETS.start()), i64::from(*OFFSETS.end()));
+    (offset.clamp(lo, hi) - lo) as usize
+}
+
 /// A mean error below this (m) is no error: floating point's.
 const NO_ERROR_M: f64 = 1e-9;
 
@@ -56,6 +77,10 @@ pub struct ForecastMetrics {
     pub separation_points: u32,
     pub separation_stated_sum_m: f64,
     pub separation_real_sum_m: f64,
+    /// The 1 s errors by the decision's offset from the evidence turn
+    /// ([`OFFSETS`]; the error-by-turn figure).
+    #[serde(default)]
+    pub by_offset: [OffsetSums; OFFSET_BINS],
 }
 
 /// Decisions between two forecast truths a horizon apart.
@@ -107,6 +132,13 @@ impl ForecastMetrics {
                     m.error_other_sum_m[k] += (said_other[k] - real_other).abs();
                     m.cv_error_true_sum_m[k] += (cv - real_true).abs();
                     m.cv_error_other_sum_m[k] += (cv - real_other).abs();
+                    if let (Some(e), 0) = (evidence_turn, k) {
+                        let bin = &mut m.by_offset[offset_bin(i64::from(turn.turn) - i64::from(e))];
+                        bin.points += 1;
+                        bin.error_true_sum_m += (said_true[k] - real_true).abs();
+                        bin.error_other_sum_m += (said_other[k] - real_other).abs();
+                        bin.cv_error_true_sum_m += (cv - real_true).abs();
+                    }
                     if before_evidence && k == HORIZONS_S.len() - 1 {
                         m.separation_points += 1;
                         m.separation_stated_sum_m += (f.lets_you_go[r][k] - f.does_not[r][k]).abs();
@@ -140,6 +172,37 @@ pub struct ForecastSummary {
     pub separation_real_m: f64,
     /// Probe parse errors per decision.
     pub probe_error_rate: f64,
+    /// The 1 s errors by decision offset from the evidence turn.
+    pub by_offset: Vec<OffsetBin>,
+}
+
+/// One offset of [`ForecastSummary::by_offset`]: mean absolute errors (m)
+/// of the 1 s forecasts made that many decisions from the evidence turn
+/// (NaN without points).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OffsetBin {
+    /// Decisions from the evidence turn; the first and last bins gather
+    /// every earlier and later one.
+    pub offset: i32,
+    pub points: u64,
+    pub error_true_m: f64,
+    pub error_other_m: f64,
+    pub cv_error_true_m: f64,
+}
+
+impl OffsetBin {
+    /// Bins pooled over several summaries, point-weighted (exact: each
+    /// mean times its points is its sum).
+    pub fn pool<'a>(offset: i32, bins: impl Iterator<Item = &'a OffsetBin>) -> OffsetBin {
+        let (mut points, mut t, mut o, mut c) = (0u64, 0.0, 0.0, 0.0);
+        for b in bins.filter(|b| b.offset == offset && b.points > 0) {
+            let n = b.points as f64;
+            points += b.points;
+            (t, o, c) = (t + n * b.error_true_m, o + n * b.error_other_m, c + n * b.cv_error_true_m);
+        }
+        let mean = |x: f64| if points == 0 { f64::NAN } else { x / points as f64 };
+        OffsetBin { offset, points, error_true_m: mean(t), error_other_m: mean(o), cv_error_true_m: mean(c) }
+    }
 }
 
 impl ForecastSummary {
@@ -171,6 +234,22 @@ impl ForecastSummary {
             separation_stated_m: ratio(episodes.clone().map(|m| m.separation_stated_sum_m).sum(), separation_points),
             separation_real_m: ratio(episodes.clone().map(|m| m.separation_real_sum_m).sum(), separation_points),
             probe_error_rate: ratio(errors, stated + errors),
+            by_offset: OFFSETS
+                .enumerate()
+                .map(|(i, offset)| {
+                    let points: u64 = episodes.clone().map(|m| u64::from(m.by_offset[i].points)).sum();
+                    let mean = |f: fn(&OffsetSums) -> f64| {
+                        ratio(episodes.clone().map(|m| f(&m.by_offset[i])).sum(), points as f64)
+                    };
+                    OffsetBin {
+                        offset,
+                        points,
+                        error_true_m: mean(|b| b.error_true_sum_m),
+                        error_other_m: mean(|b| b.error_other_sum_m),
+                        cv_error_true_m: mean(|b| b.cv_error_true_sum_m),
+                    }
+                })
+                .collect(),
         }
     }
 }

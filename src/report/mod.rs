@@ -314,6 +314,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         tiers: &tier_rows,
         outcomes: &outcomes,
         timing: &timing,
+        forecast: &forecast,
         refs: &refs,
         data: &data,
         transcripts: &transcripts,

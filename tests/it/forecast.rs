@@ -81,6 +81,13 @@ fn eval_scores_the_served_rules_forecaster_as_the_reference_and_keeps_the_action
     assert!(status.success());
     let csv = std::fs::read_to_string(rep.join("forecast.csv")).unwrap();
     assert!(csv.contains("rules*") && csv.contains("same_future*") && csv.contains("scripted"), "{csv}");
+    let figure = std::fs::read_to_string(rep.join("plots/forecast_by_turn.svg")).unwrap();
+    assert!(figure.contains("scripted") && figure.contains("rules* (reference)"), "{figure}");
+    // A report of runs without the probe has neither the table nor the figure.
+    let plain = out.join("report-plain");
+    let status = negotiator().args(["report", "--quiet", "--out"]).arg(&plain).arg(out.join("plain")).status().unwrap();
+    assert!(status.success());
+    assert!(!plain.join("forecast.csv").exists() && !plain.join("plots/forecast_by_turn.svg").exists());
 }
 
 #[test]

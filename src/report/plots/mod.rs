@@ -5,6 +5,7 @@
 
 mod belief;
 mod correctness;
+mod forecast;
 mod outcomes;
 mod radar;
 mod scenario_success;
@@ -48,6 +49,8 @@ pub struct PlotInput<'a> {
     pub tiers: &'a [TierRow],
     pub outcomes: &'a [OutcomeRow],
     pub timing: &'a [super::timing::TimingRow],
+    /// Forecast-probe rows (models, then the references); empty without.
+    pub forecast: &'a [super::forecast::ForecastRow],
     pub refs: &'a References,
     pub data: &'a Dataset,
     pub transcripts: &'a [Loaded],
@@ -160,6 +163,7 @@ pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     plots.extend(trajectory::plots(input));
     plots.extend(timeline::plots(input));
     plots.extend(belief::plots(input));
+    plots.extend(forecast::plots(input));
     plots
 }
 
