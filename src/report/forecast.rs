@@ -22,7 +22,7 @@ const REFERENCE_EPISODES: usize = 200;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct ForecastRow {
-    /// The model, or a reference forecaster's name and [`REFERENCE_MARK`].
+    /// The model, or a reference forecaster's name and `*`.
     pub model: String,
     pub scenario: ScenarioKind,
     pub tier: Tier,

@@ -85,9 +85,9 @@ pub trait World {
         Motion::default()
     }
     /// Privileged: where the road users the forecast probe asks about are
-    /// (the first [`super::def::ScenarioDef::forecast_tracks`] of the
-    /// scene, in its order), on the scene's own axis and in its units, as
-    /// the scene would show them without observation noise.
+    /// (the scene's first `forecast_tracks` of the scenario's definition,
+    /// in its order), on the scene's own axis and in its units, as the
+    /// scene would show them without observation noise.
     fn true_positions(&self, ego: &Body) -> Vec<f64>;
     /// The speed limit that binds the ego where it is now (m/s), where the
     /// world states one other than the episode's (the merge's through lane,
