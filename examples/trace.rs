@@ -2,7 +2,8 @@
 //! `cargo run --release --example trace -- <scenario> <tier> <policy|schedule> <seed> [disposition]`,
 //! a schedule written `maneuver:strength:turns,...` (the last entry repeats);
 //! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file; `LAG=n` plays
-//! the expert reading the other road users n decisions late.
+//! the expert reading the other road users n decisions late; `HEDGE=brake,seconds,lag,soft[,cautious]`
+//! a hedging reader.
 use negotiator::episode::*;
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::*;
@@ -33,9 +34,18 @@ fn main() {
         }
         None => Episode::new(set.get(kind), tier, seed),
     };
-    let mut p: Box<dyn negotiator::policy::Policy> = match std::env::var("LAG") {
-        Ok(l) => Box::new(negotiator::policy::ExpertLate::new(l.parse().unwrap())),
-        Err(_) => policy.build(),
+    let mut p: Box<dyn negotiator::policy::Policy> = match (std::env::var("LAG"), std::env::var("HEDGE")) {
+        (Ok(l), _) => Box::new(negotiator::policy::ExpertLate::new(l.parse().unwrap())),
+        // HEDGE=brake,seconds,lag,soft plays a hedging reader.
+        (_, Ok(h)) => {
+            let f: Vec<f64> = h.split(',').map(|x| x.parse().unwrap()).collect();
+            let mut how = negotiator::policy::Hedging::on_time(f[0], f[1]);
+            how.lag = f[2] as usize;
+            how.soft_first_go = f[3] > 0.0;
+            how.cautious = f.get(4).is_some_and(|c| *c > 0.0);
+            Box::new(how.build())
+        }
+        _ => policy.build(),
     };
     p.reset(policy_seed(ep.spec()));
     println!("disposition {}", ep.disposition());

@@ -77,7 +77,18 @@
 //! decision: a driver who sees the gap open a decision late, or hesitates a
 //! turn before taking it, still finds it open. Shorter (down to 0.3 s, as
 //! before) cost a reader one decision late a twentieth of the noisy tier's
-//! episodes where the car had made room.
+//! episodes where the car had made room. It counts that hang-back only from
+//! 1.0-1.5 s after its easing off was on show (`lane.look_s`, a driver's
+//! perception-reaction time): it judges what the ego does once it could
+//! have seen the gap and answered, so a driver who eased off while nothing
+//! was known, read the gap a decision late and went softly at first still
+//! finds it open (counted from the start, that hedge used the patience up:
+//! 0.58 of tier 1). An ego braking harder than that driver
+//! ([`GIVES_WAY_BRAKE_MPS2`]) gives way plainly and counts at once. An ego
+//! due at the merge point up to `lane.pace_tolerance_s` (0.4 s) after a
+//! committed car would have cleared it still keeps pace (it would meet that
+//! car's follower), so a reader who slowed while unsure and then goes is
+//! opened for rather than covered.
 //!
 //! The best blind plans found succeed under one disposition only: about
 //! half the episodes, at the default search budget and at 2,000,000
@@ -174,6 +185,13 @@ const LEADER_RESPECT_SHARE: f64 = 0.5;
 /// A car making room covers an ego that hangs back while it is at most
 /// this much faster than the ego (m/s): level with it, at its speed.
 const COVERING_MARGIN_MPS: f64 = 1.5;
+/// An ego braking this hard or harder (m/s^2) gives way plainly, harder than
+/// the 1.0-1.6 m/s^2 of a driver who slows while nothing is known: a car
+/// making room counts it as hanging back at once, before its look is over.
+/// Without that, a blind plan that stops hard for a second (the committed
+/// pair passes) and then races past the car that made room for it won 0.83
+/// of tier 1 (2,000,000 episodes, search seed 0).
+const GIVES_WAY_BRAKE_MPS2: f64 = 2.0;
 /// A tier-3 car making room shows itself by slowing this far below the
 /// bluffer's floor (m/s).
 const SHOWN_BELOW_FLOOR_MPS: f64 = 0.5;
@@ -241,9 +259,13 @@ pub struct MergeLane {
     /// and is due at the merge point within this of the lane car's own
     /// arrival at cruise speed) (s).
     pub pace_tolerance_s: f64,
-    /// Once the ego has hung back this long in a row, a car making room
-    /// gives up and takes its turn (s), drawn per episode.
+    /// Once the ego has hung back this long in all, a car making room
+    /// gives up and takes its turn (s), drawn per episode ...
     pub patience_s: Range,
+    /// ... counted only from this long after its easing off was on show
+    /// (s, drawn per episode): it judges what the ego does once it could
+    /// have seen the gap and answered, not what it did before.
+    pub look_s: Range,
     /// An ego braking harder than this (m/s^2) ...
     pub late_brake_mps2: f64,
     /// ... this close to the merge point (m) hangs back at once.
@@ -322,6 +344,7 @@ impl super::ScenarioParams for MergeParams {
         c.within("lane.open_decel_mps2", lane.open_decel_mps2, 0.3, 6.0)?;
         c.within("lane.pace_tolerance_s", lane.pace_tolerance_s, 0.0, 10.0)?;
         c.range_within("lane.patience_s", lane.patience_s, 0.0, 30.0)?;
+        c.range_within("lane.look_s", lane.look_s, 0.0, 10.0)?;
         c.within("lane.late_brake_mps2", lane.late_brake_mps2, 0.5, 8.0)?;
         c.within("lane.late_brake_within_m", lane.late_brake_within_m, 0.0, 100.0)?;
         c.within("lane.pass_margin_mps", lane.pass_margin_mps, 0.1, 10.0)?;
@@ -381,6 +404,10 @@ pub struct MergeWorld {
     /// same ego: a car making room measures the ego's pace against it.
     shadow: Body,
     patience: Patience,
+    /// How long after its easing off is on show a car making room starts
+    /// counting the ego's hang-back (s), and when it was first on show.
+    look_s: f64,
+    shown_at: Option<f64>,
     /// Times a car making room took its turn in front of the ego.
     turns_taken: u32,
     revealed: bool,
@@ -407,6 +434,7 @@ impl MergeWorld {
         let offset = params.lane.alongside_offset_m.sample(geometry);
         let follower_gap = params.lane.follower_gap_m.sample(geometry);
         let patience = params.lane.patience_s.sample(geometry);
+        let look_s = params.lane.look_s.sample(geometry);
         let ego_start = Body::new(merge_point - d_ego, v_ego);
         let x_lane = ego_start.s + offset;
         let phase = match (tier, disposition) {
@@ -437,6 +465,8 @@ impl MergeWorld {
             phase,
             shadow: Body::new(x_lane, cruise),
             patience: Patience::new(patience),
+            look_s,
+            shown_at: None,
             turns_taken: 0,
             revealed: tier != Tier::T3,
             noise,
@@ -671,12 +701,21 @@ impl MergeWorld {
             if shown {
                 self.revealed = true;
             }
+            // Its easing off is on show once it is visibly below its cruise
+            // (tier 3: below the bluffer's floor). A driver who hedged while
+            // nothing was known, or who sees it a decision late, then has
+            // `look_s` to answer before its hanging back counts.
+            if self.shown_at.is_none() && shown && lane.v <= self.cruise - BAIT_EASE_MPS {
+                self.shown_at = Some(t);
+            }
+            let looked = self.shown_at.is_some_and(|since| t - since + 1e-9 >= self.look_s);
+            let gives_way = ego.a <= -GIVES_WAY_BRAKE_MPS2;
             // Patience runs while the car covers an ego that hangs back
             // (level with it at its speed): a car that could not stop as
             // hard as the ego waits first, then pulls away from there.
             let covering = lane.v <= ego.v + COVERING_MARGIN_MPS;
             // At t = 0 the ego's state is where it started, not a choice.
-            if !pace && t > 0.0 {
+            if !pace && t > 0.0 && (looked || gives_way) {
                 self.patience.hang_back(dt);
             }
             // It takes its turn on what the ego does now: an ego that hung

@@ -19,6 +19,11 @@ const SLOWING_MPS: f64 = 1.6;
 /// A slowing lane car still this much faster than the ego (m/s) is not
 /// dropping back but settling to its cruise after closing a gap hard.
 const SETTLING_MARGIN_MPS: f64 = 2.0;
+/// A lane car gaining speed faster than this (m/s^2, over the last
+/// decision) is closing a gap, not letting the ego go, however far back it
+/// reads: read only where the readings are exact (two noisy speeds half a
+/// second apart make no acceleration).
+const REGAINING_MPS2: f64 = 2.0;
 /// Until this close to the merge point (m), a lane car that has shown
 /// nothing yet is given the chance to make room.
 const UNDECIDED_UNTIL_M: f64 = 26.0;
@@ -48,7 +53,9 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
 }
 
 /// Whether the lane car is making room: clearly slowing, or holding back
-/// behind the ego's rear no faster than the ego.
+/// behind the ego's rear no faster than the ego. With `exact` readings, a
+/// car fallen back behind the ego that is gaining speed hard is not: a
+/// reader a decision late sees a closing bluffer where it was, behind.
 ///
 /// Clearly slowing is measured against its own recent speeds
 /// ([`SLOWING_MPS`]), which a car dropping back shows within one decision
@@ -56,12 +63,12 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
 /// it as soon as one at full pace. A car that is still much faster than the
 /// ego is not making room ([`SETTLING_MARGIN_MPS`]): it may be coming back
 /// down to its cruise after closing a gap hard (the tier-3 bluff).
-fn making_room(lane_car: &Track, ego_speed: f64) -> bool {
+fn making_room(lane_car: &Track, ego_speed: f64, exact: bool) -> bool {
     let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
     let dropping_back = speed_trend(lane_car) < -SLOWING_MPS && v < ego_speed + SETTLING_MARGIN_MPS;
     let slowing = rel < CAR_LENGTH && (dropping_back || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
     // Behind the ego's centre and no faster: it is letting the ego go.
-    let fallen_back = rel < -1.5 && v < ego_speed - 0.5;
+    let fallen_back = rel < -1.5 && v < ego_speed - 0.5 && !(exact && lane_car.recent_accel() > REGAINING_MPS2);
     let holding_back = rel < -CAR_LENGTH
         && v <= ego_speed + 0.3
         && (lane_car.recent_accel() < 0.5 || (v < ego_speed - 1.0 && lane_car.recent_accel() < 2.0));
@@ -108,7 +115,8 @@ pub(super) const RULES: super::Rules = super::Rules {
     expert: |obs| match obs.scene.tracks() {
         [lane_car, follower] => {
             let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
-            expert(v, v_max, obs.scene.ego_to_conflict_m(), lane_car, follower)
+            let exact = obs.reading_noise.is_none();
+            expert(v, v_max, obs.scene.ego_to_conflict_m(), lane_car, follower, exact)
         }
         _ => Move::not_yet(super::hold_back(&obs.scene, obs.ego.speed_mps)),
     },
@@ -122,14 +130,15 @@ pub(super) const RULES: super::Rules = super::Rules {
 /// an ego that keeps pace); merge ahead once the lane car shows it makes
 /// room; otherwise let the lane car and its follower pass, keeping a stop
 /// before the merge point possible, and merge behind them.
-pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track) -> Move {
+/// `exact`: the scene's readings carry no noise.
+pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Track, exact: bool) -> Move {
     if d < 0.0 {
         return Move::go(follow_in_lane(v, v_max, [lane_car, follower]));
     }
     if lane_has_room([lane_car, follower], v) {
         return Move::go(gentler(v, v_max, go(), follow_in_lane(v, v_max, [lane_car, follower])));
     }
-    if making_room(lane_car, v) {
+    if making_room(lane_car, v, exact) {
         return Move::go(go());
     }
     // No sign yet of a car holding the lane (speeding up to keep the ego
@@ -159,7 +168,7 @@ pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, lane_car: &Track, followe
     if dropping_back || d < 0.0 || lane_has_room([lane_car, follower], v) {
         go()
     } else {
-        expert(v, v_max, d, lane_car, follower).action
+        expert(v, v_max, d, lane_car, follower, false).action
     }
 }
 
@@ -179,8 +188,22 @@ mod tests {
     #[test]
     fn a_car_dropping_back_beside_an_ego_that_eased_off_is_making_room() {
         let lane_car = track(-0.98, [10.53, 10.53, 10.53, 8.53, 7.90]);
-        assert!(making_room(&lane_car, 9.4));
-        assert!(making_room(&lane_car, 13.0));
+        for exact in [true, false] {
+            assert!(making_room(&lane_car, 9.4, exact));
+            assert!(making_room(&lane_car, 13.0, exact));
+        }
+    }
+
+    /// A bluffer closing the gap, as a reader a decision late sees it
+    /// (traced: merge tier 3, seed 8, `expert_cautious` a decision late,
+    /// t = 2 s): where it was half a second ago, a car length behind the
+    /// ego now and slower, but gaining 3.3 m/s^2. With exact readings that
+    /// is no car making room; with noisy ones the gain is not read.
+    #[test]
+    fn a_bluffer_regaining_speed_behind_a_late_reader_is_not_making_room() {
+        let bluffer = track(-4.79, [10.88, 10.88, 8.88, 6.88, 8.53]);
+        assert!(!making_room(&bluffer, 10.4, true));
+        assert!(making_room(&bluffer, 10.4, false));
     }
 
     /// A car coming back down to its cruise after closing the gap hard
@@ -190,6 +213,6 @@ mod tests {
     fn a_car_settling_after_a_hard_close_is_not_making_room() {
         let bluffer = track(0.89, [11.86, 14.11, 13.34, 11.84, 10.74]);
         assert!(speed_trend(&bluffer) < -SLOWING_MPS);
-        assert!(!making_room(&bluffer, 7.0));
+        assert!(!making_room(&bluffer, 7.0, true));
     }
 }
