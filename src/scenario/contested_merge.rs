@@ -84,7 +84,7 @@
 //! was known, read the gap a decision late and went softly at first still
 //! finds it open (counted from the start, that hedge used the patience up:
 //! 0.58 of tier 1). An ego braking harder than that driver
-//! ([`GIVES_WAY_BRAKE_MPS2`]) gives way plainly and counts at once. An ego
+//! (`GIVES_WAY_BRAKE_MPS2`) gives way plainly and counts at once. An ego
 //! due at the merge point up to `lane.pace_tolerance_s` (0.4 s) after a
 //! committed car would have cleared it still keeps pace (it would meet that
 //! car's follower), so a reader who slowed while unsure and then goes is

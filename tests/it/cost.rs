@@ -315,7 +315,7 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | yield_standoff | 1 | 3 | 18.67 | 24 | 68626 | 90.6% | 494 |
     | yield_standoff | 2 | 3 | 15.67 | 24 | 49973 | 89.1% | 407 |
     | yield_standoff | 3 | 3 | 14.00 | 24 | 39458 | 87.6% | 356 |
-    | pedestrian_feint | 1 | 3 | 13.00 | 22 | 31094 | 86.8% | 336 |
+    | pedestrian_feint | 1 | 3 | 13.00 | 23 | 31094 | 86.8% | 336 |
     | pedestrian_feint | 2 | 3 | 17.00 | 22 | 51313 | 89.8% | 446 |
     | pedestrian_feint | 3 | 3 | 13.00 | 21 | 31077 | 86.8% | 333 |
     | contested_merge | 1 | 3 | 16.67 | 27 | 59464 | 89.9% | 439 |
