@@ -74,11 +74,10 @@
 //! The turn budgets (23, 22, 21) leave a driver who gives way to a crosser
 //! two decisions to spare, and one a decision late, or who eased off while
 //! unsure (`expert_cautious`, `expert_hedge`), time to finish; a longer one
-//! lets outwaiting fit. A
-//! reader can go at the tell at once: the feinter stands at the kerb at
-//! least `look_s` (0.5-1.0 s on tiers 1 and 3, 0.5-0.7 s after a crosser's
-//! step-out time on tier 2) before it takes a gap, and a car that picks up
-//! pace toward it leaves none.
+//! lets outwaiting fit. A reader can go at the tell at once: the feinter
+//! stands at the kerb at least `look_s` (0.5-1.0 s on tiers 1 and 3,
+//! 0.5-0.7 s after a crosser's step-out time on tier 2) before it takes a
+//! gap, and a car that picks up pace toward it leaves none.
 //!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
