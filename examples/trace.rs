@@ -36,7 +36,7 @@ fn main() {
     };
     let mut p: Box<dyn negotiator::policy::Policy> = match (std::env::var("LAG"), std::env::var("HEDGE")) {
         (Ok(l), _) => Box::new(negotiator::policy::ExpertLate::new(l.parse().unwrap())),
-        // HEDGE=brake,seconds,lag,soft plays a hedging reader.
+        // HEDGE=brake,seconds,lag,soft[,cautious]: a `Hedging` reader, fields in that order.
         (_, Ok(h)) => {
             let f: Vec<f64> = h.split(',').map(|x| x.parse().unwrap()).collect();
             let mut how = negotiator::policy::Hedging::on_time(f[0], f[1]);
