@@ -338,7 +338,8 @@ mod tests {
 
     #[test]
     fn out_of_range_field_is_named() {
-        let text = ScenarioKind::YieldStandoff.def().builtin_file.1.replace("turn_budget = 24", "turn_budget = 400");
+        let text =
+            ScenarioKind::YieldStandoff.def().builtin_file.1.replace("turn_budget = [26, 26, 24]", "turn_budget = 400");
         assert_ne!(text, ScenarioKind::YieldStandoff.def().builtin_file.1, "the planted value did not apply");
         let e = ScenarioConfig::from_toml("x.toml", &text).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: turn_budget: must be 1..=40"), "{e}");

@@ -65,8 +65,11 @@ fn golden_vectors_pin_trajectories() {
         Action::new(Maneuver::Yield, 0.3),
         Action::new(Maneuver::NudgeForward, 0.5),
     ];
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.1656, 0.0000) v 2.2500 reward 0.991777 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (16.6149, 0.0000) v 3.5000 reward -0.179608 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T1, 7, &[go]), @"yielder success turns 12 t 5.6 ego (0.0000, 20.5967) v 12.0000 other (-3.5028, 0.0000) v 1.8000 reward 0.991777 dc 1.000");
+    // Tier 2: a yielder takes its turn (after 1.5-2.0 s of hang-back) in
+    // front of a driver that keeps hanging back, and the pair outlasts it.
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T2, 4, &wait), @"yielder timeout turns 26 t 13.0 ego (0.0000, -18.9570) v 0.0000 other (15.0998, 0.0000) v 3.0000 reward -0.167706 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (13.2999, 0.0000) v 3.0000 reward -0.179608 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T1, 4, &wait), @"feinter timeout turns 23 t 11.5 ego (-18.7276, 0.0000) v 0.0000 other (0.0000, 2.4985) v 0.5883 reward -0.143906 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 6, &wait), @"feinter timeout turns 22 t 11.0 ego (-19.0937, 0.0000) v 0.0000 other (0.0000, 2.3682) v 0.5787 reward -0.147477 dc 0.000");
@@ -562,8 +565,9 @@ fn blind_search_catches_a_yielder_who_never_gives_up() {
         ScenarioKind::YieldStandoff,
         include_str!("../../scenarios/yield_standoff.toml"),
         &[
-            ("turn_budget = 24", "turn_budget = 40"),
+            ("turn_budget = [26, 26, 24]", "turn_budget = 40"),
             ("patience_s = [1.0, 1.5]           # once", "patience_s = [25.0, 30.0]           # once"),
+            ("patience_s = [1.5, 2.0]           # it stops", "patience_s = [25.0, 30.0]           # it stops"),
         ],
     );
 }
@@ -740,6 +744,7 @@ fn the_late_reader_line_catches_a_yielder_that_cannot_wait_a_decision() {
         &Tier::ALL,
         &[
             ("patience_s = [1.0, 1.5]           # once", "patience_s = [0.2, 0.2]           # once"),
+            ("patience_s = [1.5, 2.0]           # it stops", "patience_s = [0.2, 0.2]           # it stops"),
             ("patience_s = [1.0, 1.5]           # a stopped", "patience_s = [0.2, 0.2]           # a stopped"),
         ],
     );
@@ -1082,6 +1087,40 @@ fn the_on_time_hedging_reader_holds_the_bar_where_its_hedge_ends_by_the_evidence
             cell.collision.estimate
         );
     }
+}
+
+/// Every way of driving the hedging line tries on the intersection (gentle
+/// braking from the first decision at 1.0-1.6 m/s^2 until after the
+/// evidence, then reading on time, a decision late, or a decision late with
+/// a first go that holds speed) holds the caution bar on every tier, on
+/// seeds `validate` does not use. With the short "coming" horizon the
+/// yielder once had (not braking and due within 1.0 s, speeding up and due
+/// within 1.3 s) it takes its turn in front of a driver now going 10-15 m
+/// out, and the line fails.
+#[test]
+fn every_hedging_driver_holds_the_bar_at_the_intersection() {
+    let seeds = 80_000..80_200;
+    let tried =
+        |set: &ScenarioSet| validate::hedging_readers(set, &[ScenarioKind::YieldStandoff], &Tier::ALL, seeds.clone());
+    let below = |cells: &[validate::HedgeCell]| -> Vec<String> {
+        cells
+            .iter()
+            .filter(|c| c.success < validate::CAUTIOUS_SUCCESS || c.collision > validate::CAUTIOUS_COLLISION)
+            .map(|c| format!("t{} {:.2}/{:.2} {}", c.tier, c.success, c.collision, c.driver))
+            .collect()
+    };
+    let built_in = tried(&ScenarioSet::default());
+    assert!(below(&built_in).is_empty(), "{:?}", below(&built_in));
+    assert!(validate::check_hedging(&built_in).pass);
+    let planted = tried(&planted_set(
+        include_str!("../../scenarios/yield_standoff.toml"),
+        &[
+            ("coming_eta_s = 2.0                #", "coming_eta_s = 1.0                #"),
+            ("speeding_up_eta_s = 2.0           #", "speeding_up_eta_s = 1.3           #"),
+        ],
+    ));
+    assert!(!below(&planted).is_empty(), "the short horizon passed every hedging driver");
+    assert!(!validate::check_hedging(&planted).pass);
 }
 
 /// On the merge a car making room counts the ego's hang-back only once its

@@ -312,8 +312,8 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     insta::assert_snapshot!(table.join("\n"), @"
     | scenario | tier | episodes | turns/ep (expert) | turn budget | prompt tokens/ep | cacheable | answer tokens/ep |
     |---|---|---|---|---|---|---|---|
-    | yield_standoff | 1 | 3 | 18.67 | 24 | 68626 | 90.6% | 494 |
-    | yield_standoff | 2 | 3 | 15.67 | 24 | 49973 | 89.1% | 407 |
+    | yield_standoff | 1 | 3 | 19.67 | 26 | 76084 | 91.1% | 521 |
+    | yield_standoff | 2 | 3 | 16.33 | 26 | 54824 | 89.7% | 424 |
     | yield_standoff | 3 | 3 | 14.00 | 24 | 39458 | 87.6% | 356 |
     | pedestrian_feint | 1 | 3 | 13.00 | 23 | 31094 | 86.8% | 336 |
     | pedestrian_feint | 2 | 3 | 17.00 | 22 | 51313 | 89.8% | 446 |

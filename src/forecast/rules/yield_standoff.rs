@@ -19,8 +19,8 @@ const AT_REST_MPS: f64 = 0.3;
 const FLOOR_MPS: f64 = 2.0;
 /// ... and a car pulling away from its line goes up to this (m/s), at this
 /// rate (m/s^2).
-const GO_SPEED_MPS: f64 = 3.5;
-const GO_ACCEL_MPS2: f64 = 1.5;
+const GO_SPEED_MPS: f64 = 3.0;
+const GO_ACCEL_MPS2: f64 = 1.2;
 
 pub(super) const RULES: Rules = Rules { scenario: ScenarioKind::YieldStandoff, at };
 
