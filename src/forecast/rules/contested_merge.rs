@@ -1,7 +1,8 @@
 //! The merge's road-user model, for the forecast: a lane car that lets the
 //! ego go drops back to a gap behind it and keeps it; one that does not
-//! holds the lane, drawing level with a faster ego alongside. Positions
-//! are from where the ego is at the decision.
+//! holds the lane, drawing level with a faster ego alongside that keeps
+//! pace; one wholly ahead of the ego has nothing left to give or hold and
+//! keeps its pace. Positions are from where the ego is at the decision.
 
 use super::{Rules, travel};
 use crate::observation::{HISTORY_SPACING_S, Observation, Sample, Track};
@@ -44,10 +45,15 @@ fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     let (p, v, ego_v) = (lane.position_m, lane.velocity_mps.max(0.0), obs.ego.speed_mps);
     // A car faster than the ego beside it is passing it (it took its turn).
     let passing = v > ego_v + PASSING_MPS && p > -CAR_LENGTH;
-    let moved = if lets_you_go && !passing {
-        let keeps_pace = obs.ego.accel_mps2 > HANGING_BACK_MPS2;
+    // Wholly ahead of the ego it has nothing left to give way or to hold:
+    // it keeps its pace.
+    let settled = p >= CAR_LENGTH;
+    let keeps_pace = obs.ego.accel_mps2 > HANGING_BACK_MPS2;
+    let moved = if settled {
+        v * h
+    } else if lets_you_go && !passing {
         gives_way(p, v, ego_v, keeps_pace, h)
-    } else if !lets_you_go && p.abs() < CAR_LENGTH && ego_v > v {
+    } else if !lets_you_go && p.abs() < CAR_LENGTH && ego_v > v && keeps_pace {
         travel(v, HOLD_ACCEL_MPS2, h, ego_v.min(v + HOLD_EXTRA_MPS))
     } else {
         v * h

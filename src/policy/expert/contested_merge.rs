@@ -194,11 +194,10 @@ mod tests {
         }
     }
 
-    /// A bluffer closing the gap, as a reader a decision late sees it
-    /// (traced: merge tier 3, seed 8, `expert_cautious` a decision late,
-    /// t = 2 s): where it was half a second ago, a car length behind the
-    /// ego now and slower, but gaining 3.3 m/s^2. With exact readings that
-    /// is no car making room; with noisy ones the gain is not read.
+    /// A bluffer closing the gap from a car length behind the ego, slower
+    /// than it but gaining 3.3 m/s^2 (traced: merge tier 3, seed 8, as a
+    /// reader a decision late once read it). With exact readings that is no
+    /// car making room; with noisy ones the gain is not read.
     #[test]
     fn a_bluffer_regaining_speed_behind_a_late_reader_is_not_making_room() {
         let bluffer = track(-4.79, [10.88, 10.88, 8.88, 6.88, 8.53]);
