@@ -24,9 +24,21 @@ const SETTLING_MARGIN_MPS: f64 = 2.0;
 /// reads: read only where the readings are exact (two noisy speeds half a
 /// second apart make no acceleration).
 const REGAINING_MPS2: f64 = 2.0;
+/// On noisy readings the expert slows to let the lane cars go first no
+/// harder than this `yield` (0.5 + 3.5 x 0.3 = 1.55 m/s^2), below the
+/// 2 m/s^2 a car making room takes as giving way at once, unless its stop
+/// before the merge point needs more.
+fn unsure_brake() -> Action {
+    Action::new(crate::action::Maneuver::Yield, 0.3)
+}
 /// Until this close to the merge point (m), a lane car that has shown
 /// nothing yet is given the chance to make room.
 const UNDECIDED_UNTIL_M: f64 = 26.0;
+
+/// Of two actions, the one that brakes less.
+fn firmer(v: f64, v_max: f64, a: Action, b: Action) -> Action {
+    if gentler(v, v_max, a, b) == a { b } else { a }
+}
 
 /// Whether the lane has room for the ego now. Cars are placed by their
 /// centre relative to the ego (positive ahead). The car ahead needs a
@@ -153,7 +165,14 @@ pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Tr
     let (rel, v_last) = (last.now.position_m, last.now.velocity_mps.max(1.0));
     let clear_in = (d - rel + CAR_LENGTH + 3.0) / v_last;
     let target = (d / clear_in).min(v_last - 1.0).max(0.0);
-    Move::not_yet(gentler(v, v_max, toward(v, target), hedge(v, d - WAIT_GAP_M)))
+    // On noisy readings a single reading can flip the rules from going to
+    // giving way: slow toward the target no harder than a driver unsure of
+    // what it saw (braking hard gives the lane car its turn plainly, and a
+    // car making room takes it), unless the stop before the merge point
+    // needs more.
+    let slow_down = toward(v, target);
+    let slow_down = if exact { slow_down } else { firmer(v, v_max, slow_down, unsure_brake()) };
+    Move::not_yet(gentler(v, v_max, slow_down, hedge(v, d - WAIT_GAP_M)))
 }
 
 /// The cue follower: merge whenever the lane car has dropped back (behind
