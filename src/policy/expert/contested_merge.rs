@@ -24,16 +24,14 @@ const SETTLING_MARGIN_MPS: f64 = 2.0;
 /// reads: read only where the readings are exact (two noisy speeds half a
 /// second apart make no acceleration).
 const REGAINING_MPS2: f64 = 2.0;
+/// Until this close to the merge point (m), a lane car that has shown
+/// nothing yet is given the chance to make room.
+const UNDECIDED_UNTIL_M: f64 = 26.0;
 /// On noisy readings the expert slows to let the lane cars go first no
 /// harder than this `yield` (0.5 + 3.5 x 0.3 = 1.55 m/s^2), below the
 /// 2 m/s^2 a car making room takes as giving way at once, unless its stop
 /// before the merge point needs more.
-fn unsure_brake() -> Action {
-    Action::new(crate::action::Maneuver::Yield, 0.3)
-}
-/// Until this close to the merge point (m), a lane car that has shown
-/// nothing yet is given the chance to make room.
-const UNDECIDED_UNTIL_M: f64 = 26.0;
+const UNSURE_BRAKE: Action = Action::new(crate::action::Maneuver::Yield, 0.3);
 
 /// Of two actions, the one that brakes less.
 fn firmer(v: f64, v_max: f64, a: Action, b: Action) -> Action {
@@ -171,7 +169,7 @@ pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Tr
     // car making room takes it), unless the stop before the merge point
     // needs more.
     let slow_down = toward(v, target);
-    let slow_down = if exact { slow_down } else { firmer(v, v_max, slow_down, unsure_brake()) };
+    let slow_down = if exact { slow_down } else { firmer(v, v_max, slow_down, UNSURE_BRAKE) };
     Move::not_yet(gentler(v, v_max, slow_down, hedge(v, d - WAIT_GAP_M)))
 }
 
