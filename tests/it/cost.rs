@@ -319,7 +319,7 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | pedestrian_feint | 2 | 3 | 17.00 | 22 | 51313 | 89.8% | 446 |
     | pedestrian_feint | 3 | 3 | 13.00 | 21 | 31077 | 86.8% | 333 |
     | contested_merge | 1 | 3 | 16.67 | 27 | 59464 | 89.9% | 439 |
-    | contested_merge | 2 | 3 | 23.33 | 27 | 116222 | 92.1% | 634 |
+    | contested_merge | 2 | 3 | 23.33 | 27 | 116214 | 92.1% | 633 |
     | contested_merge | 3 | 3 | 19.00 | 27 | 73524 | 90.8% | 511 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");

@@ -2,8 +2,8 @@
 //! public scene (the `Scene` a policy is given) and the scenario's public
 //! geometry, never its world: they live on the public side of the firewall.
 
-use super::{Move, gentler};
-use crate::action::Action;
+use super::{GENTLE_YIELD, Move, bolder, gentler};
+use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
 use crate::scenario::ScenarioKind;
@@ -27,17 +27,6 @@ const REGAINING_MPS2: f64 = 2.0;
 /// Until this close to the merge point (m), a lane car that has shown
 /// nothing yet is given the chance to make room.
 const UNDECIDED_UNTIL_M: f64 = 26.0;
-/// On noisy readings the expert slows to let the lane cars go first no
-/// harder than this `yield` (0.5 + 3.5 x 0.3 = 1.55 m/s^2), below the
-/// 2 m/s^2 a car making room takes as giving way at once, unless its stop
-/// before the merge point needs more.
-const UNSURE_BRAKE: Action = Action::new(crate::action::Maneuver::Yield, 0.3);
-
-/// Of two actions, the one that brakes less.
-fn firmer(v: f64, v_max: f64, a: Action, b: Action) -> Action {
-    if gentler(v, v_max, a, b) == a { b } else { a }
-}
-
 /// Whether the lane has room for the ego now. Cars are placed by their
 /// centre relative to the ego (positive ahead). The car ahead needs a
 /// bumper gap that covers a short headway and the closing speed; a car
@@ -94,7 +83,6 @@ fn speed_trend(t: &Track) -> f64 {
 
 /// Speed-tracking action toward `target`, braking at most as needed.
 fn toward(v: f64, target: f64) -> Action {
-    use crate::action::Maneuver;
     if v < target - 0.2 {
         Action::proceed_at(1.0 + 2.0 * ((target - v) / 1.5 - 0.5).clamp(0.0, 1.0))
     } else if v > target + 0.2 {
@@ -165,11 +153,12 @@ pub(crate) fn expert(v: f64, v_max: f64, d: f64, lane_car: &Track, follower: &Tr
     let target = (d / clear_in).min(v_last - 1.0).max(0.0);
     // On noisy readings a single reading can flip the rules from going to
     // giving way: slow toward the target no harder than a driver unsure of
-    // what it saw (braking hard gives the lane car its turn plainly, and a
-    // car making room takes it), unless the stop before the merge point
-    // needs more.
+    // what it saw (braking at 2 m/s^2 or more gives the lane car its turn
+    // plainly, and a car making room takes it), unless the stop before the
+    // merge point needs more.
     let slow_down = toward(v, target);
-    let slow_down = if exact { slow_down } else { firmer(v, v_max, slow_down, UNSURE_BRAKE) };
+    let slow_down =
+        if exact { slow_down } else { bolder(v, v_max, slow_down, Action::new(Maneuver::Yield, GENTLE_YIELD)) };
     Move::not_yet(gentler(v, v_max, slow_down, hedge(v, d - WAIT_GAP_M)))
 }
 

@@ -80,6 +80,12 @@ pub(crate) fn gentler(v: f64, v_max: f64, a: Action, b: Action) -> Action {
     if acc(&a) <= acc(&b) { a } else { b }
 }
 
+/// Of two actions, the one that brakes less (or speeds up more) at speed
+/// `v`: [`gentler`]'s other choice.
+pub(crate) fn bolder(v: f64, v_max: f64, a: Action, b: Action) -> Action {
+    if gentler(v, v_max, a, b) == a { b } else { a }
+}
+
 /// The cue follower's action on `scene`: its scenario's instantaneous-cue rule.
 fn cue_action(scene: &Scene, v: f64, v_max: f64) -> Action {
     rules(scene).map_or_else(|| hold_back(scene, v), |r| (r.cue_follower)(scene, v, v_max))
