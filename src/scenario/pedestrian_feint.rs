@@ -133,6 +133,8 @@ pub const PATH_NEAR: f64 = KERB - 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 pub const PATH_FAR: f64 = KERB + 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 /// Far kerb of the two-lane road.
 pub const FAR_KERB: f64 = 4.0 * KERB;
+/// Where a pedestrian who has crossed stops, on the far sidewalk.
+pub const FAR_STOP: f64 = FAR_KERB + 1.0;
 /// The pedestrian's public frame (lateral from the near kerb, as the scene
 /// text states it), for figures and the drill-down.
 pub(crate) const KERB_FRAME: super::LateralFrame = super::LateralFrame {
@@ -587,7 +589,7 @@ impl World for PedestrianWorld {
             }
             Phase::Cross { speed, accel: a } => {
                 accel = a;
-                if self.lat >= FAR_KERB + 1.0 { 0.0 } else { speed }
+                if self.lat >= FAR_STOP { 0.0 } else { speed }
             }
         };
         if let Phase::Cross { speed, .. } = self.phase {

@@ -7,7 +7,7 @@
 use super::Rules;
 use crate::observation::Observation;
 use crate::scenario::ScenarioKind;
-use crate::scenario::pedestrian_feint::FAR_KERB;
+use crate::scenario::pedestrian_feint::{FAR_KERB, FAR_STOP};
 
 /// Where a pedestrian waiting for cars stops (lateral from the near kerb, m).
 const KERB_STOP_M: f64 = -0.6;
@@ -22,9 +22,6 @@ const WALK_MPS: f64 = 1.0;
 /// speed is due at the line within this (s).
 const DART_MPS: f64 = 2.5;
 const DART_HORIZON_S: f64 = 0.65;
-/// One who has crossed (past the far kerb, which the scene marks) walks on
-/// to here and stays (m); it never darts back across.
-const FAR_STOP_M: f64 = FAR_KERB + 1.0;
 
 pub(super) const RULES: Rules = Rules { scenario: ScenarioKind::PedestrianFeint, at };
 
@@ -32,7 +29,9 @@ fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     let track = obs.scene.tracks()[0];
     let (lat, v) = (track.now.position_m, track.now.velocity_mps);
     if lat > FAR_KERB {
-        return vec![(lat + v.max(0.0) * h).min(FAR_STOP_M.max(lat))];
+        // It has crossed (the scene marks the far kerb): it walks on to its
+        // stop on the far sidewalk and stays; it never darts back across.
+        return vec![(lat + v.max(0.0) * h).min(FAR_STOP.max(lat))];
     }
     if v > STANDING_MPS {
         // Walking toward the kerb, one who lets the car go stops back from
