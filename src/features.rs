@@ -10,10 +10,11 @@
 //!
 //! Road-user slots follow the scene's order (`Scene::tracks`): on
 //! `yield_standoff` the other car then the car behind it (metres from the
-//! ego lane's near edge), on `pedestrian_feint` the pedestrian (lateral
-//! metres from the near kerb; the second slot is absent), on
-//! `contested_merge` the lane car then the car behind it (centre to centre
-//! relative to the ego, positive ahead). Each slot holds the current
+//! ego lane's near edge; the third slot is absent), on `pedestrian_feint`
+//! the pedestrian then its two companions (lateral metres from the near
+//! kerb), on `contested_merge` the lane car then the car behind it (centre
+//! to centre relative to the ego, positive ahead; the third slot is
+//! absent). Each slot holds the current
 //! sample and the four past ones (t-2.0 .. t-0.5 s, oldest first).
 
 use crate::action::{Action, Maneuver};
@@ -21,7 +22,7 @@ use crate::observation::{HISTORY_LEN, Observation};
 use crate::scenario::{ScenarioKind, Tier};
 
 /// Road-user slots in the vector (the most any scene has).
-const TRACK_SLOTS: usize = 2;
+const TRACK_SLOTS: usize = 3;
 
 /// Collects (name, value) pairs in layout order; the names and the values
 /// come from the same code, so the published layout cannot drift.

@@ -129,7 +129,8 @@ fn draw_plan(frame: &mut Frame, area: Rect, o: &Observation) {
                         for (mark, _) in frame.marks {
                             road(ctx, -40.0, -2.0 + 2.0 * mark, 40.0, -2.0 + 2.0 * mark);
                         }
-                        ctx.print(0.0, at(-2.0 + 2.0 * position), letter);
+                        // Side by side along the crossing, the first nearest the ego.
+                        ctx.print(3.0 * k as f64, at(-2.0 + 2.0 * position), letter);
                     }
                     None => ctx.print(at(position), if relative { 3.0 } else { 2.0 }, letter),
                 }

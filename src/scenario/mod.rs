@@ -374,17 +374,20 @@ mod tests {
                 for step in 0..80 {
                     world.advance(&ego, f64::from(step) * crate::sim::DT, crate::sim::DT);
                     let plan = world.plan(&ego);
-                    let seen = world.observe(&ego).tracks()[0].now.position_m;
-                    assert!((frame.of(&plan[1]) - seen).abs() < 1e-9, "{tier:?} {disposition}: {seen}");
-                    checked += 1;
+                    // The pedestrian, then its companions.
+                    for (k, track) in world.observe(&ego).tracks().iter().enumerate() {
+                        let seen = track.now.position_m;
+                        assert!((frame.of(&plan[1 + k]) - seen).abs() < 1e-9, "{tier:?} {disposition} {k}: {seen}");
+                        checked += 1;
+                    }
                 }
             }
         }
-        assert_eq!(checked, 480);
-        // The situation paragraph prints the same kerbs, and the band of the pedestrian's centre in
+        assert_eq!(checked, 3 * 480);
+        // The situation paragraph prints the same kerbs, and the band of a pedestrian's centre in
         // which its body overlaps the car's path (its bounds excluded), as the frame draws them.
         let stated = format!(
-            "{} = kerb, {:.1} = far kerb; with its centre between {:.1} and {:.1} its body overlaps your car's path",
+            "{} = kerb, {:.1} = far kerb; a centre between {:.1} and {:.1} overlaps your path",
             frame.marks[0].0, frame.marks[1].0, frame.in_path.0, frame.in_path.1
         );
         assert!(ScenarioKind::PedestrianFeint.situation().contains(&stated), "{stated}");

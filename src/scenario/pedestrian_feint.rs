@@ -101,20 +101,32 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
         ego_along_y: false,
         others_along_y: true,
         zero_label: "crosswalk",
-        road_users: &[RoadUser { role: "pedestrian", lateral: Some(KERB_FRAME) }],
+        road_users: &[
+            RoadUser { role: "pedestrian", lateral: Some(KERB_FRAME) },
+            RoadUser { role: "companion", lateral: Some(KERB_FRAME) },
+            RoadUser { role: "companion", lateral: Some(KERB_FRAME) },
+        ],
     },
-    scene_doc: "`ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's\ncrossing line. `pedestrian.position_m`: lateral position from the\nnear kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far\nedge of the ego lane); `velocity_mps` positive when moving into the\nroad.",
+    scene_doc: "`ego_to_crosswalk_m`: the ego's front bumper to the pedestrian's\ncrossing line. `pedestrian.position_m`: lateral position from the\nnear kerb (negative on the sidewalk, 0 at the kerb, 3.5 at the far\nedge of the ego lane, 7.0 at the far kerb); `velocity_mps` positive\nwhen moving into the road. `companion1` and `companion2`: the two\npedestrians walking up the sidewalk behind it, in the same frame.",
     place_fields: &["ego_to_crosswalk_m"],
     place_text: |n| format!("{} m to the crosswalk", n[0]),
     tracks_relative_to_ego: false,
     position_per_velocity: 1.0,
     forecast_tracks: 1,
-    situation: "Urban street with an unmarked crosswalk ahead. A pedestrian is near the kerb on your side. The pedestrian (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = on the sidewalk, 0 = kerb, 7.0 = far kerb; with its centre between 0.5 and 3.0 its body overlaps your car's path. Positive velocity = moving into the road. Distance to the crosswalk is from your front bumper to the pedestrian's crossing line; you have passed it below -5.4 m.",
-    track_labels: &[TrackLabel {
-        now: "Pedestrian",
-        history: "Pedestrian over the last 2 s (oldest first)",
-        field: "pedestrian",
-    }],
+    situation: "Unmarked crosswalk ahead. A pedestrian and two companions are near your kerb. Each (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = sidewalk, 0 = kerb, 7.0 = far kerb; a centre between 0.5 and 3.0 overlaps your path. Positive velocity = into the road. Distance to the crosswalk is from your front bumper (past it below -5.4 m). Driving over it with anyone between the kerbs is a collision.",
+    track_labels: &[
+        TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)", field: "pedestrian" },
+        TrackLabel {
+            now: "First companion",
+            history: "First companion over the last 2 s (oldest first)",
+            field: "companion1",
+        },
+        TrackLabel {
+            now: "Second companion",
+            history: "Second companion over the last 2 s (oldest first)",
+            field: "companion2",
+        },
+    ],
     track_now: |position, velocity| format!("at {position} m (lateral), velocity {velocity} m/s"),
     belief_question: "the pedestrian will let you drive past the crosswalk before stepping into your path",
     forecast_subject: "the pedestrian will be, as its lateral position in metres from the near kerb as the scene measures it,",
@@ -159,6 +171,29 @@ pub struct PedestrianParams {
     pub tier1: PedTier1,
     pub tier2: PedTier2,
     pub tier3: PedTier3,
+    pub companions: PedCompanions,
+}
+
+/// The two companions: pedestrians who walk up the sidewalk to the same
+/// kerb, the same in both worlds, and cross only behind one they saw take
+/// its turn (people at a kerb follow a neighbour who starts to cross).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PedCompanions {
+    /// Their walking pace up the sidewalk (m/s).
+    pub walk_speed_mps: Range,
+    /// The first reaches the kerb this long (s) after the start (tiers 1
+    /// and 2; tier 3's is `tier3.companions_arrive_s`) ...
+    pub arrive_s: Range,
+    /// ... and the second this much later (s).
+    pub spacing_s: Range,
+    /// Each follows this long (s) after the one before it stepped in ...
+    pub follow_delay_s: Range,
+    /// ... if it reached the kerb no later than this (s) after the
+    /// pedestrian it follows took its turn, and only while the car can
+    /// still stop; and crosses at this pace (m/s).
+    pub joined_within_s: f64,
+    pub cross_speed_mps: Range,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -254,6 +289,10 @@ pub struct PedTier3 {
     /// A gap must stay open this long (s, without a break) before a
     /// waiting feinter takes it.
     pub patience_s: Range,
+    /// The companions reach the kerb this long (s) after the start: by the
+    /// time a feinter, which stops earlier on this tier, can first take its
+    /// turn.
+    pub companions_arrive_s: Range,
 }
 
 impl super::ScenarioParams for PedestrianParams {
@@ -304,7 +343,15 @@ impl super::ScenarioParams for PedestrianParams {
         c.within("tier3.dart_reaction_s", self.tier3.dart_reaction_s, 0.0, 2.0)?;
         c.within("tier3.dart_speed_mps", self.tier3.dart_speed_mps, 0.5, 5.0)?;
         c.within("tier3.invited_speed_mps", self.tier3.invited_speed_mps, 0.5, 5.0)?;
-        c.range_within("tier3.patience_s", self.tier3.patience_s, 0.0, 20.0)
+        c.range_within("tier3.patience_s", self.tier3.patience_s, 0.0, 20.0)?;
+        c.range_within("tier3.companions_arrive_s", self.tier3.companions_arrive_s, 0.0, 20.0)?;
+        let k = &self.companions;
+        c.range_within("companions.walk_speed_mps", k.walk_speed_mps, 0.3, 3.0)?;
+        c.range_within("companions.arrive_s", k.arrive_s, 0.0, 20.0)?;
+        c.range_within("companions.spacing_s", k.spacing_s, 0.0, 10.0)?;
+        c.range_within("companions.follow_delay_s", k.follow_delay_s, 0.0, 10.0)?;
+        c.within("companions.joined_within_s", k.joined_within_s, 0.0, 20.0)?;
+        c.range_within("companions.cross_speed_mps", k.cross_speed_mps, 0.3, 3.0)
     }
 }
 
@@ -377,6 +424,29 @@ pub struct PedestrianWorld {
     revealed: bool,
     history: History,
     motion: Motion,
+    companions: [Companion; COMPANIONS],
+    /// When the pedestrian took a turn its companions follow (one that
+    /// waited back from the edge, as people waiting for cars do), if it has.
+    followed_from: Option<f64>,
+    /// Whether its first turn was one they do not follow.
+    not_followed: bool,
+}
+
+/// How many companions walk up to the kerb.
+pub const COMPANIONS: usize = 2;
+
+/// A companion: it walks up to the kerb and stops, and crosses only
+/// behind the pedestrian (or companion) ahead of it.
+#[derive(Debug, Clone, Copy)]
+struct Companion {
+    lat: f64,
+    vel: f64,
+    walk: f64,
+    cross: f64,
+    delay: f64,
+    stepped_at: Option<f64>,
+    at_kerb_since: Option<f64>,
+    history: History,
 }
 
 impl PedestrianWorld {
@@ -425,6 +495,27 @@ impl PedestrianWorld {
             Tier::T3 => params.tier3.critical_gap_s,
         };
         let judge = Judge::new(critical_gap.sample(geometry), patience);
+        let k = &params.companions;
+        let mut arrive = if tier == Tier::T3 { params.tier3.companions_arrive_s } else { k.arrive_s }.sample(geometry);
+        let companions = [(); COMPANIONS].map(|()| {
+            let (walk, cross, delay) = (
+                k.walk_speed_mps.sample(geometry),
+                k.cross_speed_mps.sample(geometry),
+                k.follow_delay_s.sample(geometry),
+            );
+            let lat = b.kerb_stop_m - walk * arrive;
+            arrive += k.spacing_s.sample(geometry);
+            Companion {
+                lat,
+                vel: walk,
+                walk,
+                cross,
+                delay,
+                stepped_at: None,
+                at_kerb_since: None,
+                history: History::steady(Sample { position_m: lat, velocity_mps: walk }, walk),
+            }
+        });
         let t_race = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
         // Tier 2's crosser keeps its own time; elsewhere the pedestrian
         // reaches the kerb `lead` before the ego's full-throttle arrival.
@@ -457,6 +548,9 @@ impl PedestrianWorld {
             revealed: false,
             history: History::steady(Sample { position_m: lat, velocity_mps: vel }, vel),
             motion: Motion::default(),
+            companions,
+            followed_from: None,
+            not_followed: false,
         }
     }
 
@@ -479,6 +573,57 @@ impl PedestrianWorld {
     fn gap_open(ego: &Body, v_max: f64, critical_gap: f64) -> bool {
         let app = EgoApproach::new(-X_HALF - ego.s, ego);
         app.can_stop() && (ego.v < CRAWL_MPS || app.eta(v_max) > critical_gap)
+    }
+
+    /// The companions' step: each walks up to the kerb and stops; it follows
+    /// the one ahead of it (the pedestrian, then the first companion) once
+    /// that one has stepped in and `delay` has passed, if it was at the
+    /// kerb when the pedestrian took its turn (or within
+    /// `joined_within_s`), and only while the car can still stop. Once
+    /// across it stops on the far sidewalk.
+    fn advance_companions(&mut self, ego: &Body, t: f64, dt: f64) {
+        let kerb = self.params.pedestrian.kerb_stop_m;
+        if self.followed_from.is_none() && self.turns_taken > 0 && !self.not_followed {
+            // Followed only if it stood back from the edge, waiting for cars
+            // as they were: a crosser at the edge is on its own time. (Where
+            // each stands, nearer one stop than the other.)
+            let back_from_edge = 0.5 * (kerb + self.params.tier3.crosser_stop_m);
+            if self.lat < back_from_edge {
+                self.followed_from = Some(t);
+            } else {
+                self.not_followed = true;
+            }
+        }
+        let can_stop = EgoApproach::new(-X_HALF - ego.s, ego).can_stop();
+        let joined_within = self.params.companions.joined_within_s;
+        let followed_from = self.followed_from;
+        let mut ahead = followed_from;
+        for c in self.companions.iter_mut() {
+            let target = if c.stepped_at.is_some() {
+                if c.lat >= FAR_STOP { 0.0 } else { c.cross }
+            } else {
+                let at_kerb = kerb - c.lat <= 0.005;
+                if at_kerb && c.at_kerb_since.is_none() {
+                    c.at_kerb_since = Some(t);
+                }
+                let saw = matches!((c.at_kerb_since, followed_from), (Some(a), Some(f)) if a <= f + joined_within);
+                if at_kerb && saw && can_stop && ahead.is_some_and(|s| t + 1e-9 >= s + c.delay) {
+                    c.stepped_at = Some(t);
+                    c.cross
+                } else {
+                    c.walk.min((2.0 * PED_ACCEL * (kerb - c.lat).max(0.0)).sqrt())
+                }
+            };
+            ahead = c.stepped_at;
+            if c.stepped_at.is_some() {
+                let slowest = self.motion.slowest_crossing_mps.map_or(c.cross, |v| v.min(c.cross));
+                self.motion.slowest_crossing_mps = Some(slowest);
+            }
+            let dv = (target - c.vel).clamp(-PED_ACCEL * dt, PED_ACCEL * dt);
+            let v_next = c.vel + dv;
+            c.lat += 0.5 * (c.vel + v_next) * dt;
+            c.vel = v_next;
+        }
     }
 
     /// Whether the ego's motion shows it will reach the line within the
@@ -597,6 +742,7 @@ impl World for PedestrianWorld {
             self.motion.slowest_crossing_mps = Some(slowest);
         }
         self.walk_toward(target, accel, dt);
+        self.advance_companions(ego, t, dt);
     }
 
     fn motion(&self) -> Motion {
@@ -614,12 +760,23 @@ impl World for PedestrianWorld {
             PATH_FAR - self.lat,
             self.vel.max(0.0),
         );
-        Contact { gap_m: e.gap(&p), ttc_s: ttc, collision: e.overlaps(&p) }
+        let mut contact = Contact { gap_m: e.gap(&p), ttc_s: ttc, collision: e.overlaps(&p) };
+        for c in &self.companions {
+            let b = Aabb::centered(0.0, c.lat - KERB, PEDESTRIAN_SIZE, PEDESTRIAN_SIZE);
+            contact.gap_m = contact.gap_m.min(e.gap(&b));
+            contact.collision |= e.overlaps(&b);
+        }
+        // The car gives way until everyone on the crossing is off the road:
+        // driving over it with anyone between the kerbs is a collision.
+        contact.collision |= self.cuts_off(ego);
+        contact
     }
 
     fn observe(&mut self, ego: &Body) -> Scene {
         let now = Sample { position_m: self.lat, velocity_mps: self.vel };
-        Scene::new(ScenarioKind::PedestrianFeint, &[-X_HALF - ego.s], &[self.history.track(now)])
+        let [a, b] =
+            self.companions.each_mut().map(|c| c.history.track(Sample { position_m: c.lat, velocity_mps: c.vel }));
+        Scene::new(ScenarioKind::PedestrianFeint, &[-X_HALF - ego.s], &[self.history.track(now), a, b])
             .expect("the crosswalk's layout")
     }
 
@@ -644,11 +801,15 @@ impl World for PedestrianWorld {
     }
 
     fn cuts_off(&self, ego: &Body) -> bool {
-        // Driving over the crossing line while the pedestrian is on the road.
-        ego.s.abs() < X_HALF && self.lat > 0.0 && self.lat < FAR_KERB
+        // Driving over the crossing line while anyone is on the road.
+        let on_road = |lat: f64| lat > 0.0 && lat < FAR_KERB;
+        ego.s.abs() < X_HALF && (on_road(self.lat) || self.companions.iter().any(|c| on_road(c.lat)))
     }
 
     fn plan(&self, ego: &Body) -> Vec<PlanPoint> {
-        vec![PlanPoint { x: ego.s, y: 0.0, v: ego.v }, PlanPoint { x: 0.0, y: self.lat - KERB, v: self.vel }]
+        let mut plan =
+            vec![PlanPoint { x: ego.s, y: 0.0, v: ego.v }, PlanPoint { x: 0.0, y: self.lat - KERB, v: self.vel }];
+        plan.extend(self.companions.iter().map(|c| PlanPoint { x: 0.0, y: c.lat - KERB, v: c.vel }));
+        plan
     }
 }

@@ -70,10 +70,10 @@ fn golden_vectors_pin_trajectories() {
     // front of a driver that keeps hanging back, and the pair outlasts it.
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T2, 4, &wait), @"yielder timeout turns 26 t 13.0 ego (0.0000, -18.9570) v 0.0000 other (15.0998, 0.0000) v 3.0000 reward -0.167706 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::YieldStandoff, Tier::T3, 11, &wait), @"yielder timeout turns 24 t 12.0 ego (0.0000, -18.6779) v 0.5000 other (13.2999, 0.0000) v 3.0000 reward -0.179608 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T1, 4, &wait), @"feinter timeout turns 23 t 11.5 ego (-18.7276, 0.0000) v 0.0000 other (0.0000, 2.4985) v 0.5883 reward -0.143906 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T1, 4, &wait), @"feinter timeout turns 33 t 16.5 ego (-17.9816, 0.0000) v 0.5000 other (0.0000, 6.5895) v 0.0000 reward -0.135355 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 3, &[go]), @"feinter success turns 12 t 5.8 ego (20.5712, 0.0000) v 12.0000 other (0.0000, -2.3500) v 0.0000 reward 0.991739 dc 1.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 6, &wait), @"feinter timeout turns 22 t 11.0 ego (-19.0937, 0.0000) v 0.0000 other (0.0000, 2.3682) v 0.5787 reward -0.147477 dc 0.000");
-    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 21 t 10.5 ego (-19.5957, 0.0000) v 0.5000 other (0.0000, 6.5888) v 0.0000 reward -0.149972 dc 1.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T2, 6, &wait), @"feinter timeout turns 33 t 16.5 ego (-18.3477, 0.0000) v 0.5000 other (0.0000, 6.6371) v 0.0000 reward -0.138938 dc 0.000");
+    insta::assert_snapshot!(golden(ScenarioKind::PedestrianFeint, Tier::T3, 5, &wait), @"crosser timeout turns 31 t 15.5 ego (-18.8927, 0.0000) v 0.0000 other (0.0000, 6.3888) v 0.0000 reward -0.141983 dc 1.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T1, 2, &[go]), @"committed collision turns 7 t 3.4 ego (13.7945, -1.8906) v 13.0000 other (14.8192, 0.0000) v 12.7421 reward -1.000000 dc 0.000");
     insta::assert_snapshot!(golden(ScenarioKind::ContestedMerge, Tier::T2, 9, &wait), @"makes_room timeout turns 27 t 13.5 ego (-0.5080, -3.5000) v 0.5000 other (28.7437, 0.0000) v 3.6000 reward -0.278176 dc 0.000");
     // In the lane the ego may reach the lane's own limit (16 m/s; 13 on the ramp).
@@ -182,7 +182,7 @@ fn tiers_bite_check_catches_a_toothless_bluff() {
 fn solvable_check_catches_an_impossible_budget() {
     let mut set = ScenarioSet::default();
     let text =
-        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [23, 22, 21]", "turn_budget = 4");
+        include_str!("../../scenarios/pedestrian_feint.toml").replace("turn_budget = [33, 33, 31]", "turn_budget = 4");
     set.replace(ScenarioConfig::from_toml("short.toml", &text).unwrap());
     assert!(!validate::check_solvable(&grid(&set, &[ScenarioKind::PedestrianFeint], &[Tier::T1], 30)).pass);
 }
@@ -552,7 +552,7 @@ fn blind_search_catches_a_waiting_pedestrian_who_never_gives_up() {
         ScenarioKind::PedestrianFeint,
         include_str!("../../scenarios/pedestrian_feint.toml"),
         &[
-            ("turn_budget = [23, 22, 21]", "turn_budget = 40"),
+            ("turn_budget = [33, 33, 31]", "turn_budget = 40"),
             ("patience_s = [0.2, 0.4]           # ...", "patience_s = [19.0, 20.0]           # ..."),
         ],
     );
@@ -957,7 +957,9 @@ fn the_merge_never_takes_its_turn_in_front_of_an_ego_that_cannot_stop() {
 /// The cautious readers are held to the expert's bar on every cell: the
 /// check passes on the crosswalk's delayed step-out, and fails once its
 /// feinter takes a gap at the moment a crosser would step out, before a
-/// driver who eased off while unsure has seen that none did.
+/// driver who eased off while unsure has seen that none did. (The
+/// companions are planted at the kerb by then, as they are when the
+/// built-in feinter decides; on their own, early companions pass.)
 #[test]
 fn the_caution_line_holds_cautious_readers_to_their_bar() {
     let cells = |set: &ScenarioSet| {
@@ -974,7 +976,13 @@ fn the_caution_line_holds_cautious_readers_to_their_bar() {
     assert!(honest.pass, "{}", honest.figure);
     let set = planted_set(
         include_str!("../../scenarios/pedestrian_feint.toml"),
-        &[("look_s = [0.5, 0.7]", "look_s = [0.0, 0.0]")],
+        &[
+            (
+                "look_s = [2.0, 2.5]               # a feinter stands at the kerb at least this long, from",
+                "look_s = [0.0, 0.0] #",
+            ),
+            ("arrive_s = [3.3, 3.8]", "arrive_s = [1.0, 1.5]"),
+        ],
     );
     let planted = validate::check_caution(&cells(&set));
     assert!(!planted.pass, "{}", planted.figure);
@@ -1016,6 +1024,46 @@ fn the_crosswalk_does_not_punish_caution() {
     assert_caution_holds_on_every_tier(ScenarioKind::PedestrianFeint);
 }
 
+/// The crosswalk's companions are the scene's second and third tracks, the
+/// same under both dispositions until the pedestrian takes a turn they
+/// follow: a car that stops short and waits sees a feinter's first
+/// companion cross behind it (and the second, when it had reached the kerb
+/// by then, on most seeds), and a crosser's (which crosses on its own time,
+/// or on tier 3 at the car's invitation) stay on the sidewalk.
+#[test]
+fn the_crosswalk_companions_follow_only_a_feinters_turn_and_show_nothing_before() {
+    let set = ScenarioSet::default();
+    let config = set.get(ScenarioKind::PedestrianFeint);
+    let wait = Action::new(Maneuver::Stop, 1.0);
+    for tier in Tier::ALL {
+        let mut both_followed = 0;
+        for seed in 0..40 {
+            let play = |d| {
+                let mut ep = Episode::with_disposition(config, tier, seed, d);
+                let mut scenes = Vec::new();
+                while !ep.is_done() {
+                    scenes.push(ep.observation().scene);
+                    ep.step(wait);
+                }
+                scenes
+            };
+            let [crosser, feinter] = ScenarioKind::PedestrianFeint.dispositions().map(play);
+            // Off the kerb, where they stand about 0.5 m back from its edge.
+            let stepped = |scene: &negotiator::observation::Scene, k: usize| scene.tracks()[k].now.position_m > -0.3;
+            // Until the feinter has stepped off the kerb, the companions are
+            // the same in both worlds.
+            let turn = feinter.iter().position(|s| stepped(s, 0)).expect("a feinter takes a waiting car's gap");
+            for (k, (a, b)) in crosser.iter().zip(&feinter).take(turn + 1).enumerate() {
+                assert_eq!(a.tracks()[1..], b.tracks()[1..], "t{} seed {seed} decision {k}", tier.number());
+            }
+            assert!(feinter.iter().any(|s| stepped(s, 1)), "t{} seed {seed}", tier.number());
+            both_followed += feinter.iter().any(|s| stepped(s, 2)) as usize;
+            assert!(!crosser.iter().any(|s| stepped(s, 1) || stepped(s, 2)), "t{} seed {seed}", tier.number());
+        }
+        assert!(both_followed > 20, "t{}: the second companion followed on {both_followed} of 40", tier.number());
+    }
+}
+
 /// A pedestrian that accepts gaps never steps in front of a car that could
 /// no longer stop: over every built-in policy on every tier of the
 /// crosswalk, on seeds other than `validate`'s, the realism line reads 0, and a
@@ -1028,9 +1076,9 @@ fn a_gap_accepting_pedestrian_never_steps_into_a_car_that_cannot_stop() {
 
 /// The learned adversary's line passes on the built-in crosswalk's tier 1
 /// and catches an outwaiting win planted there: a feinter that, having
-/// taken its turn, crosses briskly (1.4-1.5 m/s instead of 0.5-0.6) lets a
-/// policy that waits for it and then goes finish (a success with the wrong
-/// choice). Its first catch, on the intersection's tier 3 (a yielder that
+/// taken its turn, crosses briskly (1.4-1.5 m/s instead of 0.9-1.1) with
+/// no companion following in time lets a policy that waits for it and then
+/// goes finish (a success with the wrong choice). Its first catch, on the intersection's tier 3 (a yielder that
 /// pulled away at 4 m/s), rested on a yielder that stepped in front of a
 /// car braking too late to stop; since the yielder waits for such a car,
 /// that play is gone with it.
@@ -1052,7 +1100,10 @@ fn learned_adversary_catches_an_outwaited_feinter_that_clears_in_time() {
     assert!(honest.pass, "{}", honest.figure);
     let planted = check(&planted_set(
         include_str!("../../scenarios/pedestrian_feint.toml"),
-        &[("give_up_speed_mps = [0.5, 0.6]    # a", "give_up_speed_mps = [1.4, 1.5]    # a")],
+        &[
+            ("give_up_speed_mps = [0.9, 1.1]    # a", "give_up_speed_mps = [1.4, 1.5]    # a"),
+            ("follow_delay_s = [1.2, 1.6]", "follow_delay_s = [9.0, 10.0]"),
+        ],
     ));
     assert!(!planted.pass, "{}", planted.figure);
     assert!(planted.figure.contains("pedestrian_feint/t1"), "{}", planted.figure);
@@ -1185,8 +1236,9 @@ fn every_hedging_driver_holds_the_bar_on_the_merge() {
 
 /// The hedging line catches a road user that decides at the evidence: a
 /// crosswalk feinter that takes its gap the moment it has stopped at the
-/// kerb (no look) beats the on-time hedging reader on tier 1, which holds
-/// the bar against the built-in feinter.
+/// kerb (no look), with its companions there by then (as they are when
+/// the built-in feinter decides), beats the on-time hedging reader on tier
+/// 1, which holds the bar against the built-in feinter.
 #[test]
 fn the_hedging_line_catches_a_feinter_that_decides_at_the_evidence() {
     let seeds = 60_000..60_200;
@@ -1199,7 +1251,13 @@ fn the_hedging_line_catches_a_feinter_that_decides_at_the_evidence() {
     assert!(honest.success >= validate::CAUTIOUS_SUCCESS, "{honest:?}");
     let set = planted_set(
         include_str!("../../scenarios/pedestrian_feint.toml"),
-        &[("look_s = [0.5, 1.0]", "look_s = [0.0, 0.0]")],
+        &[
+            (
+                "look_s = [2.0, 2.5]               # a feinter stands at the kerb at least this long before",
+                "look_s = [0.0, 0.0] #",
+            ),
+            ("arrive_s = [3.3, 3.8]", "arrive_s = [1.0, 1.5]"),
+        ],
     );
     let planted = tried(&set);
     assert!(planted.success < validate::CAUTIOUS_SUCCESS, "{planted:?}");
@@ -1207,9 +1265,9 @@ fn the_hedging_line_catches_a_feinter_that_decides_at_the_evidence() {
     assert!(!check.pass && check.figure.contains("1 of 1 drivers below a bar"), "{}", check.figure);
 }
 
-/// The realism line reads the road users' motion: a crosswalk whose
-/// feinter crosses at 0.9-1.0 m/s meets the walking-speed bar, and the
-/// planted 0.5 m/s crossing is printed outside it.
+/// The realism line reads the road users' motion: the built-in crosswalk,
+/// whose feinter crosses at 0.9-1.1 m/s, meets the walking-speed bar, and
+/// a planted 0.5 m/s crossing is printed outside it.
 #[test]
 fn the_motion_line_catches_a_crossing_slower_than_people_walk() {
     let crossing = |set: &ScenarioSet| {
@@ -1219,18 +1277,18 @@ fn the_motion_line_catches_a_crossing_slower_than_people_walk() {
         (slowest, check)
     };
     let builtin = include_str!("../../scenarios/pedestrian_feint.toml");
-    let walking = planted_set(builtin, &[("give_up_speed_mps = [0.5, 0.6]", "give_up_speed_mps = [0.9, 1.0]")]);
-    let (slowest, check) = crossing(&walking);
+    let (slowest, check) = crossing(&ScenarioSet::default());
     assert!(slowest >= validate::SLOWEST_CROSSING_MPS, "{}", check.figure);
     assert!(check.pass, "{}", check.figure);
-    let planted = planted_set(builtin, &[("give_up_speed_mps = [0.5, 0.6]", "give_up_speed_mps = [0.5, 0.5]")]);
+    let planted =
+        planted_set(builtin, &[("give_up_speed_mps = [0.9, 1.1]    # a", "give_up_speed_mps = [0.5, 0.5]    # a")]);
     let (slowest, check) = crossing(&planted);
     assert!((slowest - 0.5).abs() < 1e-9, "{slowest}");
     assert!(!check.pass && check.figure.contains("slowest crossing 0.50 m/s"), "{}", check.figure);
 }
 
 /// The giving-way line counts the decisions a driver that gives way has to
-/// spare: with the crosswalk's budget cut by three decisions, the expert
+/// spare: with the crosswalk's tier-3 budget cut by six decisions, the expert
 /// that gives way to a crosser no longer keeps two.
 #[test]
 fn the_giving_way_line_catches_a_budget_that_leaves_no_time() {
@@ -1242,7 +1300,7 @@ fn the_giving_way_line_catches_a_budget_that_leaves_no_time() {
     assert!(honest.pass, "{}", honest.figure);
     let set = planted_set(
         include_str!("../../scenarios/pedestrian_feint.toml"),
-        &[("turn_budget = [23, 22, 21]", "turn_budget = [22, 22, 18]")],
+        &[("turn_budget = [33, 33, 31]", "turn_budget = [33, 33, 25]")],
     );
     let (planted, spare) = share(&set);
     assert!(!planted.pass && spare < validate::GIVE_WAY_SPARE_SHARE, "{}", planted.figure);

@@ -315,9 +315,9 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     | yield_standoff | 1 | 3 | 19.67 | 26 | 76084 | 91.1% | 521 |
     | yield_standoff | 2 | 3 | 16.33 | 26 | 54824 | 89.7% | 424 |
     | yield_standoff | 3 | 3 | 14.00 | 24 | 39458 | 87.6% | 356 |
-    | pedestrian_feint | 1 | 3 | 13.00 | 23 | 31094 | 86.8% | 336 |
-    | pedestrian_feint | 2 | 3 | 17.00 | 22 | 51313 | 89.8% | 446 |
-    | pedestrian_feint | 3 | 3 | 13.00 | 21 | 31077 | 86.8% | 333 |
+    | pedestrian_feint | 1 | 3 | 13.00 | 33 | 38488 | 86.6% | 336 |
+    | pedestrian_feint | 2 | 3 | 24.00 | 33 | 129724 | 93.0% | 628 |
+    | pedestrian_feint | 3 | 3 | 13.00 | 31 | 38472 | 86.6% | 333 |
     | contested_merge | 1 | 3 | 16.67 | 27 | 59464 | 89.9% | 439 |
     | contested_merge | 2 | 3 | 23.33 | 27 | 116214 | 92.1% | 633 |
     | contested_merge | 3 | 3 | 19.00 | 27 | 73524 | 90.8% | 511 |

@@ -566,7 +566,7 @@ fn the_pedestrian_is_drawn_in_the_scene_texts_kerb_frame() {
     assert!(plot.caption.contains("pedestrian has its own panel in the scene text's frame, from the near kerb"));
     // The drill-down data: the same frame, named by role.
     let drill = serde_json::to_value(&built.drill).unwrap();
-    assert_eq!(drill["scenes"][1]["roles"], json!(["pedestrian"]));
+    assert_eq!(drill["scenes"][1]["roles"], json!(["pedestrian", "companion", "companion"]));
     assert_eq!(drill["scenes"][1]["lateral"][0]["measured"], "from the near kerb");
     assert_eq!(drill["scenes"][1]["lateral"][0]["path"], json!([0.5, 3.0]));
     assert_eq!(drill["scenes"][2]["roles"], json!(["lane car", "follower"]));

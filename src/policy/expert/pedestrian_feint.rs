@@ -7,7 +7,11 @@ use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
 use crate::scenario::ScenarioKind;
-use crate::scenario::pedestrian_feint::{PATH_FAR, PATH_NEAR};
+use crate::scenario::pedestrian_feint::{FAR_KERB, PATH_NEAR};
+
+/// A pedestrian this far from the near kerb (m) is off the road: the car
+/// gives way until everyone on the crossing is past the far kerb.
+const CLEAR_M: f64 = FAR_KERB + 0.5;
 
 /// Where the expert waits: this far before the crossing line.
 const WAIT_GAP_M: f64 = 2.0;
@@ -34,10 +38,10 @@ fn can_wait_a_turn(v: f64, d: f64) -> bool {
 }
 
 /// Give way to a pedestrian in or stepping into the road, timing the arrival
-/// at the line for just after it has cleared the ego's path.
+/// at the line for just after it has left the road.
 fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
     if vel > 0.3 && lat > PATH_NEAR - 1.0 && d > 0.3 {
-        let t_clear = (PATH_FAR + 0.1 - lat) / vel + 0.4;
+        let t_clear = (CLEAR_M + 0.1 - lat) / vel + 0.4;
         // The steady speed that reaches the line just after it clears.
         let v_t = d / t_clear;
         return if v > v_t + 0.3 {
@@ -61,14 +65,47 @@ fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
 pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::PedestrianFeint,
     expert: |obs| match obs.scene.tracks() {
-        [pedestrian] => expert(obs.ego.speed_mps, obs.time_s, obs.scene.ego_to_conflict_m(), pedestrian),
+        [pedestrian, companions @ ..] => {
+            let (v, d) = (obs.ego.speed_mps, obs.scene.ego_to_conflict_m());
+            let read = expert(v, obs.time_s, d, pedestrian);
+            match companion_in_the_way(companions) {
+                Some(c) if d >= 0.0 => {
+                    Move { go: read.go, ..Move::not_yet(give_way(v, d, c.position_m, c.velocity_mps)) }
+                }
+                _ => read,
+            }
+        }
         _ => Move::not_yet(super::hold_back(&obs.scene, obs.ego.speed_mps)),
     },
     cue_follower: |scene, v, v_max| match scene.tracks() {
-        [pedestrian] => cue_follower(v, v_max, scene.ego_to_conflict_m(), pedestrian),
+        [pedestrian, companions @ ..] => {
+            let d = scene.ego_to_conflict_m();
+            match companion_in_the_way(companions) {
+                Some(c) if d >= 0.0 => give_way(v, d, c.position_m, c.velocity_mps),
+                _ => cue_follower(v, v_max, d, pedestrian),
+            }
+        }
         _ => super::hold_back(scene, v),
     },
 };
+
+/// Companions walking up stop at the kerb back from its edge (about
+/// -0.55 m); one moving past here has stepped off.
+const COMPANION_STOP_M: f64 = -0.5;
+
+/// The companion the ego gives way to, if any is stepping in or on the
+/// road: the one furthest from leaving it. Companions only ever follow a
+/// pedestrian who took its turn, so one standing at the kerb is no cue.
+fn companion_in_the_way(companions: &[Track]) -> Option<crate::observation::Sample> {
+    companions
+        .iter()
+        .map(|c| c.now)
+        .filter(|c| {
+            c.position_m < CLEAR_M + 0.1
+                && (c.position_m > 0.0 || (c.velocity_mps > 0.3 && c.position_m > COMPANION_STOP_M))
+        })
+        .min_by(|a, b| a.position_m.total_cmp(&b.position_m))
+}
 
 /// The expert: give way to a pedestrian moving into or through the road,
 /// or standing at the kerb's edge (about to step in); keep a going pace
@@ -80,7 +117,7 @@ pub(super) const RULES: super::Rules = super::Rules {
 pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
     let lat = p.now.position_m;
     let vel = p.now.velocity_mps;
-    if d < 0.0 || (lat > PATH_FAR + 0.1 && vel >= -0.1) {
+    if d < 0.0 || (lat > CLEAR_M + 0.1 && vel >= -0.1) {
         return Move::go(go());
     }
     let kerb = lat <= -0.1;
@@ -88,6 +125,10 @@ pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
     let at_edge = lat > EDGE_M && vel >= -0.1;
     // Picking up pace from the kerb is stepping off (slowing there is stopping).
     let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
+    // Crossing: the car waits it out whole, and then goes.
+    if !kerb && vel > 0.3 {
+        return Move::go(give_way(v, d, lat, vel));
+    }
     if !kerb || at_edge || setting_off {
         return Move::not_yet(give_way(v, d, lat, vel));
     }
@@ -110,7 +151,7 @@ pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
 /// The cue follower: go as soon as the pedestrian is not moving into the road.
 pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
     let lat = p.now.position_m;
-    let crossed = lat > PATH_FAR + 0.3;
+    let crossed = lat > CLEAR_M + 0.3;
     let coming = p.now.velocity_mps > 0.2 || (lat > 0.0 && !crossed);
     if d < 0.0 || crossed || !coming { go() } else { give_way(v, d, lat, p.now.velocity_mps) }
 }
