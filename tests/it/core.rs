@@ -1234,6 +1234,29 @@ fn every_hedging_driver_holds_the_bar_on_the_merge() {
     assert!(below.is_empty(), "{below:?}");
 }
 
+/// Every careful driver the hedging line tries on the crosswalk holds the
+/// caution bar on every tier, on seeds `validate` does not use: rebuilt
+/// with companions who follow a feinter across, the feinter can look for
+/// its gap well after the evidence, and a driver who slowed from the first
+/// decision, reads a decision late and first only holds speed is through
+/// before it does.
+#[test]
+fn every_hedging_driver_holds_the_bar_at_the_crosswalk() {
+    let cells = validate::hedging_readers(
+        &ScenarioSet::default(),
+        &[ScenarioKind::PedestrianFeint],
+        &Tier::ALL,
+        80_000..80_200,
+    );
+    assert!(!cells.is_empty());
+    let below: Vec<String> = cells
+        .iter()
+        .filter(|c| c.success < validate::CAUTIOUS_SUCCESS || c.collision > validate::CAUTIOUS_COLLISION)
+        .map(|c| format!("t{} {:.2}/{:.2} {}", c.tier, c.success, c.collision, c.driver))
+        .collect();
+    assert!(below.is_empty(), "{below:?}");
+}
+
 /// The hedging line catches a road user that decides at the evidence: a
 /// crosswalk feinter that takes its gap the moment it has stopped at the
 /// kerb (no look), with its companions there by then (as they are when
