@@ -433,7 +433,22 @@ pub struct PedestrianWorld {
 }
 
 /// How many companions walk up to the kerb.
-pub const COMPANIONS: usize = 2;
+const COMPANIONS: usize = 2;
+
+/// One step of a walker toward `target_vel`, changing speed at most
+/// `accel` (trapezoidal position update).
+fn step_toward(lat: &mut f64, vel: &mut f64, target_vel: f64, accel: f64, dt: f64) {
+    let dv = (target_vel - *vel).clamp(-accel * dt, accel * dt);
+    let v_next = *vel + dv;
+    *lat += 0.5 * (*vel + v_next) * dt;
+    *vel = v_next;
+}
+
+/// A walker's pace toward a stop `left` metres ahead: its walk, slowing at
+/// `PED_ACCEL` to stop there.
+fn approach_speed(walk: f64, left: f64) -> f64 {
+    walk.min((2.0 * PED_ACCEL * left.max(0.0)).sqrt())
+}
 
 /// A companion: it walks up to the kerb and stops, and crosses only
 /// behind the pedestrian (or companion) ahead of it.
@@ -560,10 +575,7 @@ impl PedestrianWorld {
 
     /// Move toward `target_vel`, changing speed at most `accel`.
     fn walk_toward(&mut self, target_vel: f64, accel: f64, dt: f64) {
-        let dv = (target_vel - self.vel).clamp(-accel * dt, accel * dt);
-        let v_next = self.vel + dv;
-        self.lat += 0.5 * (self.vel + v_next) * dt;
-        self.vel = v_next;
+        step_toward(&mut self.lat, &mut self.vel, target_vel, accel, dt);
     }
 
     /// Whether the ego leaves a waiting pedestrian a gap it would take now:
@@ -609,20 +621,15 @@ impl PedestrianWorld {
                 let saw = matches!((c.at_kerb_since, followed_from), (Some(a), Some(f)) if a <= f + joined_within);
                 if at_kerb && saw && can_stop && ahead.is_some_and(|s| t + 1e-9 >= s + c.delay) {
                     c.stepped_at = Some(t);
+                    let slowest = self.motion.slowest_crossing_mps.map_or(c.cross, |v| v.min(c.cross));
+                    self.motion.slowest_crossing_mps = Some(slowest);
                     c.cross
                 } else {
-                    c.walk.min((2.0 * PED_ACCEL * (kerb - c.lat).max(0.0)).sqrt())
+                    approach_speed(c.walk, kerb - c.lat)
                 }
             };
             ahead = c.stepped_at;
-            if c.stepped_at.is_some() {
-                let slowest = self.motion.slowest_crossing_mps.map_or(c.cross, |v| v.min(c.cross));
-                self.motion.slowest_crossing_mps = Some(slowest);
-            }
-            let dv = (target - c.vel).clamp(-PED_ACCEL * dt, PED_ACCEL * dt);
-            let v_next = c.vel + dv;
-            c.lat += 0.5 * (c.vel + v_next) * dt;
-            c.vel = v_next;
+            step_toward(&mut c.lat, &mut c.vel, target, PED_ACCEL, dt);
         }
     }
 
@@ -677,7 +684,7 @@ impl World for PedestrianWorld {
                     self.phase = Phase::AtKerb { since: t };
                     0.0
                 } else {
-                    self.walk.min((2.0 * PED_ACCEL * left.max(0.0)).sqrt())
+                    approach_speed(self.walk, left)
                 }
             }
             Phase::AtKerb { since } => {
