@@ -20,7 +20,7 @@ fn main() {
         for brake_mps2 in [0.6, 0.8, 1.0, 1.3, 1.6, 2.0, 2.5] {
             for hedge_s in [1.0, 2.0, 3.0, 3.5, 4.0, 4.5, 5.0] {
                 for (lag, soft_first_go, cautious) in ways {
-                    let how = Hedging { brake_mps2, hedge_s, lag, soft_first_go, cautious };
+                    let how = Hedging { brake_mps2, hedge_s, lag, soft_first_go, cautious, defensive: false };
                     let (mut success, mut collision) = (0u32, 0u32);
                     for seed in 90_000..90_200 {
                         match run_episode(config, tier, seed, &mut how.build()).outcome {

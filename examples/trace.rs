@@ -2,8 +2,8 @@
 //! `cargo run --release --example trace -- <scenario> <tier> <policy|schedule> <seed> [disposition]`,
 //! a schedule written `maneuver:strength:turns,...` (the last entry repeats);
 //! `SCENARIO_OVERRIDE=file.toml` plays an edited scenario file; `LAG=n` plays
-//! the expert reading the other road users n decisions late; `HEDGE=brake,seconds,lag,soft[,cautious]`
-//! a hedging reader.
+//! the expert reading the other road users n decisions late; `HEDGE=brake,seconds,lag,soft[,cautious[,defensive]]`
+//! a hedging reader (`HEDGE=0,0,1,1,0,1`: the defensive reader a decision late, first go holding).
 use negotiator::episode::*;
 use negotiator::policy::PolicyKind;
 use negotiator::scenario::*;
@@ -36,13 +36,14 @@ fn main() {
     };
     let mut p: Box<dyn negotiator::policy::Policy> = match (std::env::var("LAG"), std::env::var("HEDGE")) {
         (Ok(l), _) => Box::new(negotiator::policy::ExpertLate::new(l.parse().unwrap())),
-        // HEDGE=brake,seconds,lag,soft[,cautious]: a `Hedging` reader, fields in that order.
+        // HEDGE=brake,seconds,lag,soft[,cautious[,defensive]]: a `Hedging` reader, fields in that order.
         (_, Ok(h)) => {
             let f: Vec<f64> = h.split(',').map(|x| x.parse().unwrap()).collect();
             let mut how = negotiator::policy::Hedging::on_time(f[0], f[1]);
             how.lag = f[2] as usize;
             how.soft_first_go = f[3] > 0.0;
             how.cautious = f.get(4).is_some_and(|c| *c > 0.0);
+            how.defensive = f.get(5).is_some_and(|c| *c > 0.0);
             Box::new(how.build())
         }
         _ => policy.build(),

@@ -16,7 +16,9 @@ a collision, and without waiting needlessly: the episode ends when you reach the
 collide, or when the turns run out. Running out of turns is a failure (scored only by how far you \
 got, always below any success); a collision is the worst outcome. A collision is any overlap of \
 your car's body with another road user's body (cars are 4.8 m long and 1.9 m wide, a pedestrian \
-0.6 m across), checked every 0.1 s.
+0.6 m across), checked every 0.1 s. At a crosswalk, the rule of the road (the US Uniform Vehicle \
+Code, section 11-502) is that a driver gives way to a pedestrian on the crossing; a pedestrian \
+waiting at the kerb has not taken it yet, and must not step in front of a car too close to stop.
 
 Every turn, answer with exactly one JSON object and nothing else:
 {\"reasoning\": \"<one or two short sentences>\", \"maneuver\": \"<proceed | yield | stop | nudge_forward>\", \"acceleration\": <number from -1 to 1>, \"steering\": 0.0}

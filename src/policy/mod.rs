@@ -5,6 +5,7 @@ mod expert;
 pub(crate) mod reply;
 mod simple;
 
+pub use expert::watching;
 pub use expert::{
     CueFollower, Expert, ExpertCautious, ExpertHedge, ExpertLate, HEDGE_BRAKE_MPS2, HEDGE_SECONDS, Hedging,
     HedgingReader, MODERATE_FRACTION,
@@ -55,10 +56,13 @@ pub enum PolicyKind {
     HedgingReader,
     HedgingReaderLate,
     HedgingReaderSoft,
+    DefensiveReader,
+    DefensiveReaderLate,
+    DefensiveReaderSoft,
 }
 
 impl PolicyKind {
-    pub const ALL: [PolicyKind; 12] = [
+    pub const ALL: [PolicyKind; 15] = [
         PolicyKind::Expert,
         PolicyKind::AlwaysProceed,
         PolicyKind::AlwaysStop,
@@ -71,6 +75,9 @@ impl PolicyKind {
         PolicyKind::HedgingReader,
         PolicyKind::HedgingReaderLate,
         PolicyKind::HedgingReaderSoft,
+        PolicyKind::DefensiveReader,
+        PolicyKind::DefensiveReaderLate,
+        PolicyKind::DefensiveReaderSoft,
     ];
     /// The expert's rules driven with caution while unsure (`validate`'s
     /// "caution is not punished" line).
@@ -95,6 +102,9 @@ impl PolicyKind {
             PolicyKind::HedgingReader => "hedging_reader",
             PolicyKind::HedgingReaderLate => "hedging_reader_late",
             PolicyKind::HedgingReaderSoft => "hedging_reader_soft",
+            PolicyKind::DefensiveReader => "defensive_reader",
+            PolicyKind::DefensiveReaderLate => "defensive_reader_late",
+            PolicyKind::DefensiveReaderSoft => "defensive_reader_soft",
         }
     }
 
@@ -112,6 +122,9 @@ impl PolicyKind {
             PolicyKind::HedgingReader => Box::new(Hedging::on_time(HEDGE_BRAKE_MPS2, HEDGE_SECONDS).build()),
             PolicyKind::HedgingReaderLate => Box::new(Hedging::late(HEDGE_BRAKE_MPS2, HEDGE_SECONDS).build()),
             PolicyKind::HedgingReaderSoft => Box::new(Hedging::late_soft(HEDGE_BRAKE_MPS2, HEDGE_SECONDS).build()),
+            PolicyKind::DefensiveReader => Box::new(Hedging::DEFENSIVE[0].build()),
+            PolicyKind::DefensiveReaderLate => Box::new(Hedging::DEFENSIVE[1].build()),
+            PolicyKind::DefensiveReaderSoft => Box::new(Hedging::DEFENSIVE[2].build()),
         }
     }
 }
@@ -124,7 +137,7 @@ impl fmt::Display for PolicyKind {
 
 #[derive(Debug, thiserror::Error)]
 #[error(
-    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower, expert_late, expert_cautious, expert_hedge, hedging_reader, hedging_reader_late or hedging_reader_soft)"
+    "unknown policy '{0}' (expected expert, always_proceed, always_stop, cautious, random, cue_follower, expert_late, expert_cautious, expert_hedge, hedging_reader, hedging_reader_late, hedging_reader_soft, defensive_reader, defensive_reader_late or defensive_reader_soft)"
 )]
 pub struct UnknownPolicy(String);
 

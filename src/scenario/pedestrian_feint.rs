@@ -2,8 +2,17 @@
 //! pedestrian is a `crosser` (steps in and crosses: the ego must give way) or
 //! a `feinter` (stops at the kerb to let the car pass: the ego should go). A
 //! feinter waits for a car that comes on, and takes its turn when the car
-//! leaves it a gap; it then crosses hesitantly, and a car that hangs back
-//! waits for the whole of that.
+//! leaves it a gap; it then crosses at a group's walking pace with the two
+//! companions who stand beside it at the kerb, and a car that hangs back
+//! waits for the whole of that: the crossing is clear once every centre is
+//! off the road.
+//!
+//! Every walker moves as people do: it slows to a stop over 0.6 s or more
+//! (`pedestrian.stop_decel_mps2`), so a reading shows it slowing; a
+//! companion sets out within a second of the pedestrian it follows and
+//! walks beside it; and the companions, who are the same in both worlds,
+//! stand at the kerb before any evidence can come (a careful driver has no
+//! reason to wait for them once the pedestrian's intent shows).
 //!
 //! Until the reveal both dispositions move identically: same start, same
 //! walking speed (tiers 1 and 3), the same wait at the kerb (tier 2). Every
@@ -29,13 +38,13 @@
 //!
 //! Tiers (all timings drawn per seed; on tiers 1 and 3 tied to the ego's
 //! own full-throttle arrival at the crossing line, `t_race`):
-//! - tier 1: the pedestrian walks toward the kerb at 0.9-1.1 m/s and reaches
+//! - tier 1: the pedestrian walks toward the kerb at 1.2-1.4 m/s and reaches
 //!   it `tier1.kerb_lead_s` before `t_race`; the crosser walks on, the
-//!   feinter decelerates and stops back from the edge (the tell).
+//!   feinter slows and stops back from the edge (the tell).
 //! - tier 2 (delayed step-out): both wait at the kerb; the crosser, not
 //!   watching the car, steps out late on its own time (`tier2.step_at_s`,
 //!   2.0-2.3 s after the start, whatever the car does) and walks across at
-//!   0.9-1.1 m/s. Nothing tells the two apart before then: the tell is that
+//!   1.2-1.4 m/s. Nothing tells the two apart before then: the tell is that
 //!   nobody stepped out (the expert reads it at 2.5 s). The feinter decides
 //!   no earlier than a crosser would step out, and looks `tier2.look_s`
 //!   (0.5-0.7 s) more before it takes a gap, so that a driver who slowed
@@ -48,7 +57,7 @@
 //!   within `tier3.dart_horizon_s` (0.6-0.7 s, shorter than a car at the
 //!   limit needs to stop even with no reaction time): a car that took the
 //!   pause for a wait is hit. A car that leaves it a gap for
-//!   `tier3.invite_s` invites it, and it hurries across
+//!   `tier3.invite_s` invites it, and it walks across
 //!   (`tier3.invited_speed_mps`); its long linger ends the pause otherwise.
 //!   The bite is the misleading pause, not a reaction time: the tell comes
 //!   2.2-2.6 s before a full-throttle arrival.
@@ -64,20 +73,21 @@
 //!   feinter's critical gap once it has looked arrives while a crosser is
 //!   still in its path, and a car due later leaves the feinter a gap.
 //! - hanging back (a slow approach, a stop, braking to creep through): the
-//!   car leaves a gap, so the feinter steps in and crosses hesitantly
-//!   (0.5-0.6 m/s), and the car waits for all of it or hits it; on tier 3
+//!   car leaves a gap, so the feinter steps in and crosses with its group
+//!   (0.9-1.1 m/s), and the car waits for all of it or hits it; on tier 3
 //!   it also invites a crosser at the edge first.
-//! - outwaiting both: the feinter's hesitant passage ends later than the
-//!   turn budget allows; the expert, who reads the tell and times its
-//!   arrival behind a crosser, finishes within it with slack.
+//! - outwaiting both: the group's passage, after the feinter has looked,
+//!   ends later than the turn budget allows; the expert, who reads the tell
+//!   and times its arrival behind a crosser walking at its own pace,
+//!   finishes within it with slack.
 //!
-//! The turn budgets (23, 22, 21) leave a driver who gives way to a crosser
+//! The turn budgets (27, 27, 29) leave a driver who gives way to a crosser
 //! two decisions to spare, and one a decision late, or who eased off while
 //! unsure (`expert_cautious`, `expert_hedge`), time to finish; a longer one
 //! lets outwaiting fit. A reader can go at the tell at once: the feinter
-//! stands at the kerb at least `look_s` (0.5-1.0 s on tiers 1 and 3,
-//! 0.5-0.7 s after a crosser's step-out time on tier 2) before it takes a
-//! gap, and a car that picks up pace toward it leaves none.
+//! stands at the kerb at least `look_s` (2.0-2.5 s on every tier, on tier 2
+//! from a crosser's step-out time) before it takes a gap, and a car that
+//! picks up pace toward it leaves none.
 //!
 //! Frame: the ego drives along +x centred on y = 0 (lane from -1.75 to
 //! 1.75); the pedestrian crosses along +y at x = 0. Its public position is
@@ -113,7 +123,7 @@ pub(crate) const DEF: ScenarioDef = ScenarioDef {
     tracks_relative_to_ego: false,
     position_per_velocity: 1.0,
     forecast_tracks: 1,
-    situation: "Unmarked crosswalk ahead. A pedestrian and two companions are near your kerb. Each (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = sidewalk, 0 = kerb, 7.0 = far kerb; a centre between 0.5 and 3.0 overlaps your path. Positive velocity = into the road. Distance to the crosswalk is from your front bumper (past it below -5.4 m). Driving over it with anyone between the kerbs is a collision.",
+    situation: "Unmarked crosswalk ahead. A pedestrian and two companions are near your kerb. Each (0.6 m across) is placed by its centre, laterally from the near kerb (your car: 1.9 m wide, 4.8 m long): negative = sidewalk, 0 = kerb, 7.0 = far kerb; a centre between 0.5 and 3.0 overlaps your path. Positive velocity = into the road. Distance to the crosswalk is from your front bumper (on it: 0 to -5.4 m). Being on it while any centre is between 0 and 7.0 is a collision.",
     track_labels: &[
         TrackLabel { now: "Pedestrian", history: "Pedestrian over the last 2 s (oldest first)", field: "pedestrian" },
         TrackLabel {
@@ -155,7 +165,8 @@ pub(crate) const KERB_FRAME: super::LateralFrame = super::LateralFrame {
     marks: [(0.0, "near kerb"), (FAR_KERB, "far kerb")],
     in_path: (PATH_NEAR, PATH_FAR),
 };
-/// Pedestrians stop and step out this briskly (m/s^2).
+/// Pedestrians step out (and a darting crosser speeds up) this briskly
+/// (m/s^2); they stop at `pedestrian.stop_decel_mps2`.
 const PED_ACCEL: f64 = 6.0;
 /// A car slower than this (m/s) is crawling: to a waiting pedestrian, a gap.
 const CRAWL_MPS: f64 = 3.0;
@@ -175,25 +186,25 @@ pub struct PedestrianParams {
 }
 
 /// The two companions: pedestrians who walk up the sidewalk to the same
-/// kerb, the same in both worlds, and cross only behind one they saw take
-/// its turn (people at a kerb follow a neighbour who starts to cross).
+/// kerb, the same in both worlds, and cross only with one they saw take
+/// its turn (people at a kerb follow a neighbour who starts to cross, and
+/// a group walks abreast at one pace).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PedCompanions {
     /// Their walking pace up the sidewalk (m/s).
     pub walk_speed_mps: Range,
-    /// The first reaches the kerb this long (s) after the start (tiers 1
-    /// and 2; tier 3's is `tier3.companions_arrive_s`) ...
+    /// The first comes to rest at the kerb this long (s) after the start,
+    /// slowing from its walk at `pedestrian.stop_decel_mps2` before ...
     pub arrive_s: Range,
     /// ... and the second this much later (s).
     pub spacing_s: Range,
-    /// Each follows this long (s) after the one before it stepped in ...
+    /// Each sets out this long (s) after the pedestrian it follows, and
+    /// walks beside it at its pace ...
     pub follow_delay_s: Range,
     /// ... if it reached the kerb no later than this (s) after the
-    /// pedestrian it follows took its turn, and only while the car can
-    /// still stop; and crosses at this pace (m/s).
+    /// pedestrian took its turn, and only while the car can still stop.
     pub joined_within_s: f64,
-    pub cross_speed_mps: Range,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -215,6 +226,9 @@ pub struct PedBehaviour {
     pub kerb_stop_m: f64,
     /// A feinter taking its turn pulls away from rest this gently (m/s^2).
     pub give_up_accel_mps2: f64,
+    /// Every walker slows to a stop at most this sharply (m/s^2): people
+    /// end their walk over a step or more, never within a tenth of a second.
+    pub stop_decel_mps2: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -226,7 +240,7 @@ pub struct PedTier1 {
     /// A feinter stands at the kerb at least this long (s), from the moment
     /// it decides, before it steps in ...
     pub look_s: Range,
-    /// ... and then walks across hesitantly at this pace (m/s).
+    /// ... and then walks across at this pace (m/s), its group beside it.
     pub give_up_speed_mps: Range,
     /// The pedestrian reaches the kerb this long (s) before a full-throttle
     /// ego would reach the crossing line.
@@ -249,7 +263,7 @@ pub struct PedTier2 {
     /// A feinter stands at the kerb at least this long (s), from the moment
     /// it decides (when a crosser would step out), before it steps in ...
     pub look_s: Range,
-    /// ... and then walks across hesitantly at this pace (m/s).
+    /// ... and then walks across at this pace (m/s), its group beside it.
     pub give_up_speed_mps: Range,
     /// A gap must stay open this long (s, without a break) before a
     /// waiting feinter takes it.
@@ -265,7 +279,7 @@ pub struct PedTier3 {
     /// A feinter stands at the kerb at least this long (s), from the moment
     /// it decides, before it steps in ...
     pub look_s: Range,
-    /// ... and then walks across hesitantly at this pace (m/s).
+    /// ... and then walks across at this pace (m/s), its group beside it.
     pub give_up_speed_mps: Range,
     /// Both reach the feinter's stop this long (s) before a full-throttle
     /// arrival; the feinter stops there, the crosser walks on to ...
@@ -280,7 +294,7 @@ pub struct PedTier3 {
     pub dart_horizon_s: Range,
     pub dart_reaction_s: f64,
     pub dart_speed_mps: f64,
-    /// Invited, it hurries across at this pace (m/s).
+    /// Invited, it walks across at this pace (m/s).
     pub invited_speed_mps: f64,
     /// A crosser at the edge takes its turn once the car, still short of
     /// the line, has left it a gap (as a waiting pedestrian judges it) for
@@ -289,10 +303,6 @@ pub struct PedTier3 {
     /// A gap must stay open this long (s, without a break) before a
     /// waiting feinter takes it.
     pub patience_s: Range,
-    /// The companions reach the kerb this long (s) after the start: by the
-    /// time a feinter, which stops earlier on this tier, can first take its
-    /// turn.
-    pub companions_arrive_s: Range,
 }
 
 impl super::ScenarioParams for PedestrianParams {
@@ -319,6 +329,7 @@ impl super::ScenarioParams for PedestrianParams {
         c.range_within("pedestrian.walk_speed_mps", b.walk_speed_mps, 0.3, 3.0)?;
         c.within("pedestrian.kerb_stop_m", b.kerb_stop_m, -2.0, 0.0)?;
         c.within("pedestrian.give_up_accel_mps2", b.give_up_accel_mps2, 0.1, PED_ACCEL)?;
+        c.within("pedestrian.stop_decel_mps2", b.stop_decel_mps2, 0.3, 20.0)?;
         c.range_within("tier1.kerb_lead_s", self.tier1.kerb_lead_s, 0.0, 10.0)?;
         for (tier, look, give_up) in [
             ("tier1", self.tier1.look_s, self.tier1.give_up_speed_mps),
@@ -344,14 +355,12 @@ impl super::ScenarioParams for PedestrianParams {
         c.within("tier3.dart_speed_mps", self.tier3.dart_speed_mps, 0.5, 5.0)?;
         c.within("tier3.invited_speed_mps", self.tier3.invited_speed_mps, 0.5, 5.0)?;
         c.range_within("tier3.patience_s", self.tier3.patience_s, 0.0, 20.0)?;
-        c.range_within("tier3.companions_arrive_s", self.tier3.companions_arrive_s, 0.0, 20.0)?;
         let k = &self.companions;
         c.range_within("companions.walk_speed_mps", k.walk_speed_mps, 0.3, 3.0)?;
         c.range_within("companions.arrive_s", k.arrive_s, 0.0, 20.0)?;
         c.range_within("companions.spacing_s", k.spacing_s, 0.0, 10.0)?;
         c.range_within("companions.follow_delay_s", k.follow_delay_s, 0.0, 10.0)?;
-        c.within("companions.joined_within_s", k.joined_within_s, 0.0, 20.0)?;
-        c.range_within("companions.cross_speed_mps", k.cross_speed_mps, 0.3, 3.0)
+        c.within("companions.joined_within_s", k.joined_within_s, 0.0, 20.0)
     }
 }
 
@@ -426,10 +435,14 @@ pub struct PedestrianWorld {
     motion: Motion,
     companions: [Companion; COMPANIONS],
     /// When the pedestrian took a turn its companions follow (one that
-    /// waited back from the edge, as people waiting for cars do), if it has.
-    followed_from: Option<f64>,
+    /// waited back from the edge, as people waiting for cars do), if it
+    /// has, and the pace it set out at: they walk beside it at that pace.
+    followed_from: Option<(f64, f64)>,
     /// Whether its first turn was one they do not follow.
     not_followed: bool,
+    /// When the pedestrian began to slow to its present stop, if it is
+    /// slowing (for the quickest-stop figure).
+    slowing_since: Option<f64>,
 }
 
 /// How many companions walk up to the kerb.
@@ -444,24 +457,92 @@ fn step_toward(lat: &mut f64, vel: &mut f64, target_vel: f64, accel: f64, dt: f6
     *vel = v_next;
 }
 
-/// A walker's pace toward a stop `left` metres ahead: its walk, slowing at
-/// `PED_ACCEL` to stop there.
-fn approach_speed(walk: f64, left: f64) -> f64 {
-    walk.min((2.0 * PED_ACCEL * left.max(0.0)).sqrt())
+/// What one step of [`walk_to`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Stride {
+    /// Walked on (or picked up pace), or stood.
+    Walked,
+    /// Slowed toward its stop.
+    Slowed,
+    /// Came to rest at its stop this far (s) into the step.
+    Halted(f64),
 }
 
-/// A companion: it walks up to the kerb and stops, and crosses only
-/// behind the pedestrian (or companion) ahead of it.
+/// One step of a walker heading for a stop at `mark` at `pace`: it keeps
+/// its pace (changing speed at most `accel`) until slowing at `decel` would
+/// only just stop it at the mark, then slows at the one deceleration that
+/// stops it exactly there. That deceleration is constant over the stop (so
+/// the trapezoidal update is exact), never sharper than `decel`, and the
+/// walker neither overshoots its mark nor stops short of it.
+fn walk_to(lat: &mut f64, vel: &mut f64, mark: f64, pace: f64, accel: f64, decel: f64, dt: f64) -> Stride {
+    let (left, v) = (mark - *lat, *vel);
+    if v <= 1e-9 && left <= 1e-9 {
+        *vel = 0.0;
+        return Stride::Walked;
+    }
+    if v > 1e-9 && left - v * dt <= v * v / (2.0 * decel) {
+        let a = if left > 1e-9 { v * v / (2.0 * left) } else { f64::INFINITY };
+        let v_next = v - a * dt;
+        if v_next <= 1e-9 {
+            *lat = mark;
+            *vel = 0.0;
+            return Stride::Halted(if a.is_finite() { v / a } else { 0.0 });
+        }
+        *lat += 0.5 * (v + v_next) * dt;
+        *vel = v_next;
+        return Stride::Slowed;
+    }
+    step_toward(lat, vel, pace, accel, dt);
+    Stride::Walked
+}
+
+/// Where a walker heading for the far sidewalk at `pace` slows to its
+/// stop: no more sharply than `decel`, and only once past the far kerb.
+fn far_side_decel(pace: f64, decel: f64) -> f64 {
+    decel.max(pace * pace / (2.0 * (FAR_STOP - FAR_KERB)))
+}
+
+/// Record the end of a walker's stop in `motion`: it began to slow at
+/// `since` and came to rest at `at` (s).
+fn record_stop(motion: &mut Motion, since: Option<f64>, at: f64) {
+    let took = at - since.unwrap_or(at);
+    motion.quickest_stop_s = Some(motion.quickest_stop_s.map_or(took, |q| q.min(took)));
+}
+
+/// A companion: it walks up to the kerb and stops there, and crosses only
+/// with the pedestrian it saw take its turn, beside it.
 #[derive(Debug, Clone, Copy)]
 struct Companion {
     lat: f64,
     vel: f64,
     walk: f64,
-    cross: f64,
+    /// When it comes to rest at the kerb (s), and how sharply it slows.
+    arrive: f64,
+    decel: f64,
     delay: f64,
     stepped_at: Option<f64>,
     at_kerb_since: Option<f64>,
+    /// Whether, due to set out, it let a car that could not stop pass.
+    left_behind: bool,
+    slowing_since: Option<f64>,
     history: History,
+}
+
+impl Companion {
+    /// Its walk up the sidewalk, in closed form: at its pace until it
+    /// slows at `decel` to rest at the kerb stop `kerb` at `arrive`; the
+    /// same in both worlds, before the start too (its first history).
+    fn approach_at(&self, kerb: f64, t: f64) -> Sample {
+        let (w, a) = (self.walk, self.decel);
+        let to_rest = self.arrive - t;
+        if to_rest <= 0.0 {
+            Sample { position_m: kerb, velocity_mps: 0.0 }
+        } else if to_rest <= w / a {
+            Sample { position_m: kerb - 0.5 * a * to_rest * to_rest, velocity_mps: a * to_rest }
+        } else {
+            Sample { position_m: kerb - w * w / (2.0 * a) - w * (to_rest - w / a), velocity_mps: w }
+        }
+    }
 }
 
 impl PedestrianWorld {
@@ -511,25 +592,27 @@ impl PedestrianWorld {
         };
         let judge = Judge::new(critical_gap.sample(geometry), patience);
         let k = &params.companions;
-        let mut arrive = if tier == Tier::T3 { params.tier3.companions_arrive_s } else { k.arrive_s }.sample(geometry);
+        let mut arrive = k.arrive_s.sample(geometry);
         let companions = [(); COMPANIONS].map(|()| {
-            let (walk, cross, delay) = (
-                k.walk_speed_mps.sample(geometry),
-                k.cross_speed_mps.sample(geometry),
-                k.follow_delay_s.sample(geometry),
-            );
-            let lat = b.kerb_stop_m - walk * arrive;
-            arrive += k.spacing_s.sample(geometry);
-            Companion {
-                lat,
-                vel: walk,
+            let (walk, delay) = (k.walk_speed_mps.sample(geometry), k.follow_delay_s.sample(geometry));
+            let mut c = Companion {
+                lat: 0.0,
+                vel: 0.0,
                 walk,
-                cross,
+                arrive,
+                decel: b.stop_decel_mps2,
                 delay,
                 stepped_at: None,
                 at_kerb_since: None,
-                history: History::steady(Sample { position_m: lat, velocity_mps: walk }, walk),
-            }
+                left_behind: false,
+                slowing_since: None,
+                history: History::steady(Sample { position_m: 0.0, velocity_mps: 0.0 }, 0.0),
+            };
+            arrive += k.spacing_s.sample(geometry);
+            let now = c.approach_at(b.kerb_stop_m, 0.0);
+            (c.lat, c.vel) = (now.position_m, now.velocity_mps);
+            c.history = History::from_past(|t| c.approach_at(b.kerb_stop_m, t));
+            c
         });
         let t_race = travel_time(d_ego, v_ego, params.episode.speed_limit_mps, EGO_MAX_ACCEL);
         // Tier 2's crosser keeps its own time; elsewhere the pedestrian
@@ -566,16 +649,12 @@ impl PedestrianWorld {
             companions,
             followed_from: None,
             not_followed: false,
+            slowing_since: None,
         }
     }
 
     fn ped_box(&self) -> Aabb {
         Aabb::centered(0.0, self.lat - KERB, PEDESTRIAN_SIZE, PEDESTRIAN_SIZE)
-    }
-
-    /// Move toward `target_vel`, changing speed at most `accel`.
-    fn walk_toward(&mut self, target_vel: f64, accel: f64, dt: f64) {
-        step_toward(&mut self.lat, &mut self.vel, target_vel, accel, dt);
     }
 
     /// Whether the ego leaves a waiting pedestrian a gap it would take now:
@@ -587,10 +666,9 @@ impl PedestrianWorld {
         app.can_stop() && (ego.v < CRAWL_MPS || app.eta(v_max) > critical_gap)
     }
 
-    /// The companions' step: each walks up to the kerb and stops; it follows
-    /// the one ahead of it (the pedestrian, then the first companion) once
-    /// that one has stepped in and `delay` has passed, if it was at the
-    /// kerb when the pedestrian took its turn (or within
+    /// The companions' step: each walks up to the kerb and stops; it sets
+    /// out `delay` after the pedestrian took its turn and walks beside it at
+    /// its pace, if it was at the kerb when the pedestrian did (or within
     /// `joined_within_s`), and only while the car can still stop. Once
     /// across it stops on the far sidewalk.
     fn advance_companions(&mut self, ego: &Body, t: f64, dt: f64) {
@@ -600,36 +678,51 @@ impl PedestrianWorld {
             // as they were: a crosser at the edge is on its own time. (Where
             // each stands, nearer one stop than the other.)
             let back_from_edge = 0.5 * (kerb + self.params.tier3.crosser_stop_m);
-            if self.lat < back_from_edge {
-                self.followed_from = Some(t);
-            } else {
-                self.not_followed = true;
+            match self.phase {
+                Phase::Cross { speed, .. } if self.lat < back_from_edge => self.followed_from = Some((t, speed)),
+                _ => self.not_followed = true,
             }
         }
         let can_stop = EgoApproach::new(-X_HALF - ego.s, ego).can_stop();
         let joined_within = self.params.companions.joined_within_s;
+        let set_out_accel = self.params.pedestrian.give_up_accel_mps2;
         let followed_from = self.followed_from;
-        let mut ahead = followed_from;
         for c in self.companions.iter_mut() {
-            let target = if c.stepped_at.is_some() {
-                if c.lat >= FAR_STOP { 0.0 } else { c.cross }
-            } else {
-                let at_kerb = kerb - c.lat <= 0.005;
-                if at_kerb && c.at_kerb_since.is_none() {
-                    c.at_kerb_since = Some(t);
+            if let Some((_, pace)) = followed_from.filter(|_| c.stepped_at.is_some()) {
+                let decel = far_side_decel(pace, c.decel);
+                match walk_to(&mut c.lat, &mut c.vel, FAR_STOP, pace, set_out_accel, decel, dt) {
+                    Stride::Slowed => c.slowing_since = c.slowing_since.or(Some(t)),
+                    Stride::Halted(into) => record_stop(&mut self.motion, c.slowing_since.take(), t + into),
+                    Stride::Walked => {}
                 }
-                let saw = matches!((c.at_kerb_since, followed_from), (Some(a), Some(f)) if a <= f + joined_within);
-                if at_kerb && saw && can_stop && ahead.is_some_and(|s| t + 1e-9 >= s + c.delay) {
-                    c.stepped_at = Some(t);
-                    let slowest = self.motion.slowest_crossing_mps.map_or(c.cross, |v| v.min(c.cross));
-                    self.motion.slowest_crossing_mps = Some(slowest);
-                    c.cross
-                } else {
-                    approach_speed(c.walk, kerb - c.lat)
-                }
+                continue;
+            }
+            let at_kerb = t + 1e-9 >= c.arrive;
+            if at_kerb && c.at_kerb_since.is_none() {
+                c.at_kerb_since = Some(t);
+                // It slowed from its walk to rest over `walk / decel`.
+                record_stop(&mut self.motion, Some(c.arrive - c.walk / c.decel), c.arrive);
+            }
+            let (saw, due) = match (c.at_kerb_since, followed_from) {
+                (Some(a), Some((f, _))) => (a <= f + joined_within, t + 1e-9 >= f + c.delay),
+                _ => (false, false),
             };
-            ahead = c.stepped_at;
-            step_toward(&mut c.lat, &mut c.vel, target, PED_ACCEL, dt);
+            if at_kerb && saw && due && !c.left_behind && !can_stop {
+                // The car it would step in front of can no longer stop: it
+                // lets it pass, and the group crosses without it.
+                c.left_behind = true;
+            }
+            if let (true, Some((f, pace))) = (at_kerb && saw && due && !c.left_behind, followed_from) {
+                let lag = t - f;
+                self.motion.widest_follow_s = Some(self.motion.widest_follow_s.map_or(lag, |w| w.max(lag)));
+                let slowest = self.motion.slowest_crossing_mps.map_or(pace, |v| v.min(pace));
+                self.motion.slowest_crossing_mps = Some(slowest);
+                c.stepped_at = Some(t);
+                step_toward(&mut c.lat, &mut c.vel, pace, set_out_accel, dt);
+            } else {
+                let next = c.approach_at(kerb, t + dt);
+                (c.lat, c.vel) = (next.position_m, next.velocity_mps);
+            }
         }
     }
 
@@ -661,30 +754,25 @@ impl World for PedestrianWorld {
             self.params.pedestrian.kerb_stop_m
         };
         let feinter_stop = self.params.pedestrian.kerb_stop_m;
-        let mut accel = PED_ACCEL;
+        let stop_decel = self.params.pedestrian.stop_decel_mps2;
         // The pedestrian watches the car from the start: whether it leaves a
         // gap now.
         let hanging_back = Self::gap_open(ego, self.params.episode.speed_limit_mps, self.judge.critical_gap);
         self.judge.watch(hanging_back, dt);
-        let target = match self.phase {
+        // It moves this step as its phase at the start of the step says (one
+        // that decides to cross sets out on the next).
+        let moving = self.phase;
+        match self.phase {
             Phase::ToKerb => {
-                let left = kerb_stop - self.lat;
-                // Where a pedestrian who stops at the kerb starts to slow.
+                // A pedestrian who stops at the kerb starts to slow here: the
+                // step after which stopping at `stop_decel` would overrun it.
                 let feinter_left = feinter_stop - self.lat;
-                if feinter_left <= self.walk * self.walk / (2.0 * PED_ACCEL) + 0.02 && self.tier != Tier::T2 {
+                if feinter_left - self.walk * dt <= self.walk * self.walk / (2.0 * stop_decel) && self.tier != Tier::T2
+                {
                     self.revealed = true;
                 }
-                if self.tier == Tier::T1 && crosser {
+                if self.tier == Tier::T1 && crosser && self.lat > kerb_stop {
                     self.phase = Phase::Cross { speed: self.walk, accel: PED_ACCEL };
-                    if left > 0.0 {
-                        self.phase = Phase::ToKerb;
-                    }
-                    self.walk
-                } else if left <= 0.005 && self.vel <= 0.05 {
-                    self.phase = Phase::AtKerb { since: t };
-                    0.0
-                } else {
-                    approach_speed(self.walk, left)
                 }
             }
             Phase::AtKerb { since } => {
@@ -711,7 +799,7 @@ impl World for PedestrianWorld {
                                 // the dart and the linger are the crosser's own.
                                 self.turns_taken += (invited && !triggered) as u32;
                                 self.revealed = true;
-                                // Invited, it hurries across; darting, it runs.
+                                // Invited, it walks across; darting, it runs.
                                 let speed = if triggered || !invited {
                                     self.step_speed
                                 } else {
@@ -737,18 +825,35 @@ impl World for PedestrianWorld {
                         };
                     }
                 }
-                0.0
             }
-            Phase::Cross { speed, accel: a } => {
-                accel = a;
-                if self.lat >= FAR_STOP { 0.0 } else { speed }
-            }
-        };
+            Phase::Cross { .. } => {}
+        }
         if let Phase::Cross { speed, .. } = self.phase {
             let slowest = self.motion.slowest_crossing_mps.map_or(speed, |s| s.min(speed));
             self.motion.slowest_crossing_mps = Some(slowest);
         }
-        self.walk_toward(target, accel, dt);
+        let (lat, vel) = (&mut self.lat, &mut self.vel);
+        let stride = match moving {
+            // A tier-1 crosser walks on across.
+            Phase::ToKerb if self.tier == Tier::T1 && crosser => {
+                walk_to(lat, vel, FAR_STOP, self.walk, PED_ACCEL, far_side_decel(self.walk, stop_decel), dt)
+            }
+            Phase::ToKerb => walk_to(lat, vel, kerb_stop, self.walk, PED_ACCEL, stop_decel, dt),
+            Phase::AtKerb { .. } => Stride::Walked,
+            Phase::Cross { speed, accel } => {
+                walk_to(lat, vel, FAR_STOP, speed, accel, far_side_decel(speed, stop_decel), dt)
+            }
+        };
+        match stride {
+            Stride::Slowed => self.slowing_since = self.slowing_since.or(Some(t)),
+            Stride::Halted(into) => {
+                record_stop(&mut self.motion, self.slowing_since.take(), t + into);
+                if self.phase == Phase::ToKerb {
+                    self.phase = Phase::AtKerb { since: t + into };
+                }
+            }
+            Stride::Walked => {}
+        }
         self.advance_companions(ego, t, dt);
     }
 

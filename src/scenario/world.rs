@@ -103,6 +103,12 @@ pub trait World {
 pub struct Motion {
     /// The slowest pace (m/s) a pedestrian set out across the road at.
     pub slowest_crossing_mps: Option<f64>,
+    /// The shortest time (s) a walker took to come to rest from its pace,
+    /// from its first slowing step: people end a walk over a step or more.
+    pub quickest_stop_s: Option<f64>,
+    /// The longest (s) a pedestrian that followed another across set out
+    /// after it: a group that follows crosses together.
+    pub widest_follow_s: Option<f64>,
     /// The hardest a car braked (m/s^2) on an open road: ahead of the ego,
     /// with nothing ahead of it nearer than its own desired gap.
     pub open_road_brake_mps2: f64,
@@ -116,7 +122,7 @@ pub struct Motion {
 
 impl Motion {
     /// The figures of two stretches together (the slowest of the slowest,
-    /// the hardest, the fastest).
+    /// the quickest stop, the widest follow, the hardest, the fastest).
     pub fn merge(self, other: Motion) -> Motion {
         let pick = |a: Option<f64>, b: Option<f64>, f: fn(f64, f64) -> f64| match (a, b) {
             (Some(x), Some(y)) => Some(f(x, y)),
@@ -124,6 +130,8 @@ impl Motion {
         };
         Motion {
             slowest_crossing_mps: pick(self.slowest_crossing_mps, other.slowest_crossing_mps, f64::min),
+            quickest_stop_s: pick(self.quickest_stop_s, other.quickest_stop_s, f64::min),
+            widest_follow_s: pick(self.widest_follow_s, other.widest_follow_s, f64::max),
             open_road_brake_mps2: self.open_road_brake_mps2.max(other.open_road_brake_mps2),
             fastest_car_mps: pick(self.fastest_car_mps, other.fastest_car_mps, f64::max),
             car_speed_limit_mps: pick(self.car_speed_limit_mps, other.car_speed_limit_mps, f64::min),
@@ -160,6 +168,12 @@ impl History {
             *s = observe(*s);
         }
         history
+    }
+
+    /// History of a road user whose motion before t = 0 is known: `at(t)`
+    /// gives its sample at each earlier reading's time (negative, s).
+    pub fn from_past(at: impl Fn(f64) -> Sample) -> Self {
+        History { past: std::array::from_fn(|i| at(-((HISTORY_LEN - i) as f64) * HISTORY_SPACING_S)) }
     }
 
     /// History of a road user that has been braking at `decel` (m/s^2,

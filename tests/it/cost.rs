@@ -312,15 +312,15 @@ fn a_dry_run_predicts_the_turns_and_tokens_that_a_run_against_the_served_expert_
     insta::assert_snapshot!(table.join("\n"), @"
     | scenario | tier | episodes | turns/ep (expert) | turn budget | prompt tokens/ep | cacheable | answer tokens/ep |
     |---|---|---|---|---|---|---|---|
-    | yield_standoff | 1 | 3 | 19.67 | 26 | 76084 | 91.1% | 521 |
-    | yield_standoff | 2 | 3 | 16.33 | 26 | 54824 | 89.7% | 424 |
-    | yield_standoff | 3 | 3 | 14.00 | 24 | 39458 | 87.6% | 356 |
-    | pedestrian_feint | 1 | 3 | 13.00 | 33 | 38488 | 86.6% | 336 |
-    | pedestrian_feint | 2 | 3 | 24.00 | 33 | 129724 | 93.0% | 628 |
-    | pedestrian_feint | 3 | 3 | 13.00 | 31 | 38472 | 86.6% | 333 |
-    | contested_merge | 1 | 3 | 16.67 | 27 | 59464 | 89.9% | 439 |
-    | contested_merge | 2 | 3 | 23.33 | 27 | 116214 | 92.1% | 633 |
-    | contested_merge | 3 | 3 | 19.00 | 27 | 73524 | 90.8% | 511 |
+    | yield_standoff | 1 | 3 | 19.67 | 26 | 77328 | 91.2% | 521 |
+    | yield_standoff | 2 | 3 | 16.33 | 26 | 55859 | 89.7% | 424 |
+    | yield_standoff | 3 | 3 | 14.00 | 24 | 40346 | 87.7% | 356 |
+    | pedestrian_feint | 1 | 3 | 13.00 | 27 | 39367 | 86.7% | 337 |
+    | pedestrian_feint | 2 | 3 | 20.00 | 27 | 90330 | 91.4% | 522 |
+    | pedestrian_feint | 3 | 3 | 13.00 | 29 | 39340 | 86.7% | 333 |
+    | contested_merge | 1 | 3 | 16.67 | 27 | 60518 | 90.0% | 439 |
+    | contested_merge | 2 | 3 | 23.33 | 27 | 117691 | 92.1% | 633 |
+    | contested_merge | 3 | 3 | 19.00 | 27 | 74724 | 90.8% | 511 |
     ");
     assert!(plan.contains("(0.5 s per turn as given by --assume-latency"), "{plan}");
     let (turns, prompt, completion) = expected_line(&plan);

@@ -17,7 +17,7 @@ const EDGE_M: f64 = -0.35;
 const STANDING_MPS: f64 = 0.1;
 /// A crosser at the kerb steps out by this time (s), at this pace (m/s).
 const STEP_OUT_AT_S: f64 = 2.15;
-const WALK_MPS: f64 = 1.0;
+const WALK_MPS: f64 = 1.3;
 /// One at the edge darts, at this pace (m/s), once the car at its current
 /// speed is due at the line within this (s).
 const DART_MPS: f64 = 2.5;

@@ -122,7 +122,21 @@ pub(super) const RULES: super::Rules = super::Rules {
         [lane_car, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), lane_car, follower),
         _ => super::hold_back(scene, v),
     },
+    watch: |obs, _confirm| match obs.scene.tracks() {
+        [lane_car, follower] => follower_may_close_on_the_ego(obs.ego.speed_mps, lane_car, follower),
+        _ => false,
+    },
 };
+
+/// Whether the lane car's follower (not the tier's question) could close
+/// on the ego in the lane: it leaves the room a car behind the ego needs
+/// ([`lane_has_room`]) unless it is queued behind the lane car, which any
+/// slot the ego takes is ahead of. The rules read it already where it is
+/// nearer: this is the habit, stated over every road user.
+fn follower_may_close_on_the_ego(ego_speed: f64, lane_car: &Track, follower: &Track) -> bool {
+    let behind_lane_car = follower.now.position_m < lane_car.now.position_m - CAR_LENGTH;
+    follower.now.position_m < 0.0 && !behind_lane_car && !lane_has_room([follower, follower], ego_speed)
+}
 
 /// The expert: keep pace at first (a car making room only opens a gap for
 /// an ego that keeps pace); merge ahead once the lane car shows it makes

@@ -4,8 +4,12 @@
 //! shows its go by first holding speed before it speeds up. After the
 //! hedge it drives by the expert's own rules, so its score against the
 //! expert's is what that way of driving costs.
+//!
+//! The defensive readers are the same family with no hedge: the expert's
+//! rules, watching every road user as the expert does, and confirming with
+//! one more reading that a walker has stopped before passing it.
 
-use super::{ExpertLate, GENTLE_YIELD, expert_move, gentler};
+use super::{ExpertLate, GENTLE_YIELD, gentler, watched_move};
 use crate::action::{Action, Maneuver};
 use crate::observation::Observation;
 use crate::policy::Policy;
@@ -31,12 +35,15 @@ pub struct Hedging {
     /// After the hedge, brake gently whenever the rules would not yet go
     /// (as `expert_cautious` does).
     pub cautious: bool,
+    /// Count a walker that is not the tier's question as stopped only once
+    /// a second reading shows it still (the defensive readers).
+    pub defensive: bool,
 }
 
 impl Hedging {
     /// Braking from the first decision, then the expert's rules on time.
     pub const fn on_time(brake_mps2: f64, hedge_s: f64) -> Hedging {
-        Hedging { brake_mps2, hedge_s, lag: 0, soft_first_go: false, cautious: false }
+        Hedging { brake_mps2, hedge_s, lag: 0, soft_first_go: false, cautious: false, defensive: false }
     }
 
     /// The same, then the rules a decision late.
@@ -51,8 +58,20 @@ impl Hedging {
 
     /// `expert_cautious` a decision late, its first go holding speed.
     pub const fn cautious_late_soft() -> Hedging {
-        Hedging { brake_mps2: 0.0, hedge_s: 0.0, lag: 1, soft_first_go: true, cautious: true }
+        Hedging { brake_mps2: 0.0, hedge_s: 0.0, lag: 1, soft_first_go: true, cautious: true, defensive: false }
     }
+
+    /// A defensive reader: no hedge, the rules `lag` decisions late (0 or
+    /// more), confirming every walker's stop, its first go holding speed
+    /// if `soft_first_go`.
+    pub const fn defensive(lag: usize, soft_first_go: bool) -> Hedging {
+        Hedging { brake_mps2: 0.0, hedge_s: 0.0, lag, soft_first_go, cautious: false, defensive: true }
+    }
+
+    /// The defensive readers `validate` holds to the bar: on time, a
+    /// decision late, and a decision late with a first go that holds.
+    pub const DEFENSIVE: [Hedging; 3] =
+        [Hedging::defensive(0, false), Hedging::defensive(1, false), Hedging::defensive(1, true)];
 
     /// The `yield` that brakes at `brake_mps2` (yield spans 0.5-4.0 m/s^2).
     fn brake(&self) -> Action {
@@ -87,7 +106,7 @@ impl Policy for HedgingReader {
             self.went = false;
         }
         let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
-        let m = expert_move(&self.late.late_view(obs));
+        let m = watched_move(&self.late.late_view(obs), self.how.defensive);
         if obs.time_s + 1e-9 < self.how.hedge_s {
             // Nothing is known yet: slow, whatever the scene shows (and
             // brake harder where the rules do).
@@ -120,6 +139,8 @@ impl std::fmt::Display for Hedging {
         };
         if self.hedge_s > 0.0 {
             write!(f, "braking {:.1} m/s^2 for {:.1} s, then {reads}", self.brake_mps2, self.hedge_s)?;
+        } else if self.defensive {
+            write!(f, "defensive, reading {reads}")?;
         } else {
             write!(f, "reading {reads}")?;
         }
@@ -129,6 +150,7 @@ impl std::fmt::Display for Hedging {
 
 #[cfg(test)]
 mod tests {
+    use super::super::expert_move;
     use super::*;
     use crate::episode::{Episode, run_episode};
     use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
@@ -193,5 +215,27 @@ mod tests {
             }
         }
         assert!(soft_goes > 100, "{soft_goes} first goes");
+    }
+
+    /// Confirming a stop is about walkers: where no walker is watched (the
+    /// intersection, the merge) the defensive readers are the expert and
+    /// `expert_late` (at the crosswalk, `tests/it/core.rs` plants walkers
+    /// that come on late).
+    #[test]
+    fn the_defensive_readers_confirm_only_walkers() {
+        let set = ScenarioSet::default();
+        for kind in [ScenarioKind::YieldStandoff, ScenarioKind::ContestedMerge] {
+            for tier in Tier::ALL {
+                for seed in 0..20 {
+                    let config = set.get(kind);
+                    let defensive = run_episode(config, tier, seed, &mut Hedging::defensive(0, false).build());
+                    let expert = run_episode(config, tier, seed, &mut super::super::Expert);
+                    assert_eq!(defensive.decisions, expert.decisions, "{kind}/t{tier} seed {seed}");
+                    let late = run_episode(config, tier, seed, &mut Hedging::defensive(1, false).build());
+                    let expert_late = run_episode(config, tier, seed, &mut ExpertLate::new(1));
+                    assert_eq!(late.decisions, expert_late.decisions, "{kind}/t{tier} seed {seed}");
+                }
+            }
+        }
     }
 }

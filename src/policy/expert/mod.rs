@@ -21,6 +21,14 @@ use crate::observation::{Observation, Scene};
 use crate::scenario::ScenarioKind;
 pub use hedging::{HEDGE_BRAKE_MPS2, HEDGE_SECONDS, Hedging, HedgingReader};
 
+/// Whether a road user that is not the tier's question gives a careful
+/// driver reason not to pass the conflict on `obs` (its scenario's
+/// [`Rules::watch`]; `confirm`: a walker is stopped only once two readings
+/// show it still). `validate` reads it at the evidence turn.
+pub fn watching(obs: &Observation, confirm: bool) -> bool {
+    rules(&obs.scene).is_some_and(|r| (r.watch)(obs, confirm))
+}
+
 /// One scenario's rules, each reading only its public scene and the ego's
 /// speed (and, for the expert, its last action). Each scenario's file
 /// defines its own.
@@ -28,6 +36,13 @@ pub(crate) struct Rules {
     scenario: ScenarioKind,
     expert: fn(&Observation) -> Move,
     cue_follower: fn(&Scene, f64, f64) -> Action,
+    /// The habit a driving instructor teaches, over every road user that is
+    /// not the tier's question: whether one is moving toward the ego's path
+    /// and could reach it by the time the car does, so that a careful
+    /// driver does not pass the conflict yet. With `confirm` (the
+    /// defensive readers), a walker counts as stopped only once a second
+    /// reading shows it still.
+    watch: fn(&Observation, bool) -> bool,
 }
 
 /// What the expert's rules decide on one scene: the action, and whether it
@@ -68,9 +83,24 @@ fn hold_back(scene: &Scene, v: f64) -> Action {
     super::hedge(v, scene.ego_to_conflict_m())
 }
 
-/// The expert's move on `obs`: its scene's scenario's rule.
+/// The expert's move on `obs`: its scene's scenario's rule, watching every
+/// road user (the skill ceiling does not rely on knowing which of them are
+/// scenery).
 fn expert_move(obs: &Observation) -> Move {
-    rules(&obs.scene).map_or_else(|| Move::not_yet(hold_back(&obs.scene, obs.ego.speed_mps)), |r| (r.expert)(obs))
+    watched_move(obs, false)
+}
+
+/// The rules' move, held back short of the conflict while a road user that
+/// is not the tier's question could still reach the ego's path (as
+/// [`Rules::watch`] reads it, `confirm`ing stops or not), and the ego can
+/// still stop comfortably before the conflict (past that, going on is the
+/// safe play).
+fn watched_move(obs: &Observation, confirm: bool) -> Move {
+    let (v, d) = (obs.ego.speed_mps, obs.ego_to_conflict_m());
+    let Some(r) = rules(&obs.scene) else { return Move::not_yet(hold_back(&obs.scene, v)) };
+    let m = (r.expert)(obs);
+    let can_stop = d > 0.0 && v * v / (2.0 * crate::scenario::world::FIRM_BRAKE) < d;
+    if m.go && can_stop && (r.watch)(obs, confirm) { Move::not_yet(hold_back(&obs.scene, v)) } else { m }
 }
 
 /// Of two actions, the one that brakes harder (accelerates less) at speed

@@ -4,17 +4,24 @@
 
 use super::Move;
 use crate::action::{Action, Maneuver};
-use crate::observation::Track;
+use crate::observation::{Observation, Track};
 use crate::policy::{go, hedge};
 use crate::scenario::ScenarioKind;
-use crate::scenario::pedestrian_feint::{FAR_KERB, PATH_NEAR};
+use crate::scenario::pedestrian_feint::{FAR_KERB, PATH_NEAR, X_HALF};
+use crate::sim::{EGO_MAX_ACCEL, travel_time};
 
 /// A pedestrian this far from the near kerb (m) is off the road: the car
-/// gives way until everyone on the crossing is past the far kerb.
-const CLEAR_M: f64 = FAR_KERB + 0.5;
+/// gives way until every centre on the crossing is past the far kerb (the
+/// scene's rule), read with room for the scene's rounding.
+const CLEAR_M: f64 = FAR_KERB + 0.1;
 
 /// Where the expert waits: this far before the crossing line.
 const WAIT_GAP_M: f64 = 2.0;
+/// Giving way to a pedestrian on the road, the expert rolls toward a point
+/// this far before the line (m), and picks up pace from there once full
+/// throttle would reach the line only after it has crossed: a driver does
+/// not creep up to a crossing someone is still walking over.
+const LAUNCH_M: f64 = 4.0;
 /// The expert's pace while it reads the pedestrian (m/s).
 const PACE_MPS: f64 = 10.5;
 /// A pedestrian standing at the kerb while the ego is due within this (s)
@@ -38,12 +45,17 @@ fn can_wait_a_turn(v: f64, d: f64) -> bool {
 }
 
 /// Give way to a pedestrian in or stepping into the road, timing the arrival
-/// at the line for just after it has left the road.
-fn give_way(v: f64, d: f64, lat: f64, vel: f64) -> Action {
+/// at the line for just after it has left the road: pick up pace once even
+/// full throttle would reach the line only after it has.
+fn give_way(v: f64, v_max: f64, d: f64, lat: f64, vel: f64) -> Action {
     if vel > 0.3 && lat > PATH_NEAR - 1.0 && d > 0.3 {
         let t_clear = (CLEAR_M + 0.1 - lat) / vel + 0.4;
-        // The steady speed that reaches the line just after it clears.
-        let v_t = d / t_clear;
+        if travel_time(d, v, v_max, EGO_MAX_ACCEL) > t_clear {
+            return go();
+        }
+        // The steady speed that reaches the launch point as it clears:
+        // going from there at full throttle arrives just after it has.
+        let v_t = (d - LAUNCH_M).max(0.0) / t_clear;
         return if v > v_t + 0.3 {
             let need = (v - v_t) / 0.5;
             if need > 4.0 {
@@ -66,11 +78,11 @@ pub(super) const RULES: super::Rules = super::Rules {
     scenario: ScenarioKind::PedestrianFeint,
     expert: |obs| match obs.scene.tracks() {
         [pedestrian, companions @ ..] => {
-            let (v, d) = (obs.ego.speed_mps, obs.scene.ego_to_conflict_m());
-            let read = expert(v, obs.time_s, d, pedestrian);
+            let (v, v_max, d) = (obs.ego.speed_mps, obs.ego.speed_limit_mps, obs.scene.ego_to_conflict_m());
+            let read = expert(v, v_max, obs.time_s, d, pedestrian);
             match companion_in_the_way(companions) {
                 Some(c) if d >= 0.0 => {
-                    Move { go: read.go, ..Move::not_yet(give_way(v, d, c.position_m, c.velocity_mps)) }
+                    Move { go: read.go, ..Move::not_yet(give_way(v, v_max, d, c.position_m, c.velocity_mps)) }
                 }
                 _ => read,
             }
@@ -81,16 +93,50 @@ pub(super) const RULES: super::Rules = super::Rules {
         [pedestrian, companions @ ..] => {
             let d = scene.ego_to_conflict_m();
             match companion_in_the_way(companions) {
-                Some(c) if d >= 0.0 => give_way(v, d, c.position_m, c.velocity_mps),
+                Some(c) if d >= 0.0 => give_way(v, v_max, d, c.position_m, c.velocity_mps),
                 _ => cue_follower(v, v_max, d, pedestrian),
             }
         }
         _ => super::hold_back(scene, v),
     },
+    watch: |obs, confirm| match obs.scene.tracks() {
+        [_, companions @ ..] => companions.iter().any(|c| walker_may_reach_the_road(obs, c, confirm)),
+        _ => false,
+    },
 };
 
-/// Companions walking up stop at the kerb back from its edge (about
-/// -0.55 m); one moving past here has stepped off.
+/// Whether a walker that is not the tier's question may be on the road by
+/// the time the ego has driven over the crossing, going now at full
+/// throttle: it is on the road, or walking toward it and due there by then
+/// (with a second to spare), unless its readings show it slowing to a stop
+/// short of the kerb. With `confirm`, a walker counts as stopped only once
+/// two readings in a row show it at rest, and one that moved at the last
+/// reading is taken to walk on at that pace.
+fn walker_may_reach_the_road(obs: &Observation, walker: &Track, confirm: bool) -> bool {
+    let (lat, vel) = (walker.now.position_m, walker.now.velocity_mps);
+    if lat >= CLEAR_M {
+        return false;
+    }
+    if lat > 0.0 {
+        return true;
+    }
+    let before = walker.past[walker.past.len() - 1].velocity_mps;
+    let pace = if confirm { vel.max(before) } else { vel };
+    if pace <= 0.1 {
+        return false;
+    }
+    // Slowing since the last reading (m/s^2), and where that stops it.
+    let slowing = (before - vel) / crate::observation::HISTORY_SPACING_S;
+    if !confirm && slowing > 0.3 && lat + vel * vel / (2.0 * slowing) < 0.0 {
+        return false;
+    }
+    let (v, v_max, d) = (obs.ego.speed_mps, obs.ego.speed_limit_mps, obs.scene.ego_to_conflict_m());
+    let car_over = travel_time(d.max(0.0) + 2.0 * X_HALF, v, v_max, EGO_MAX_ACCEL);
+    -lat / pace < car_over + 1.0
+}
+
+/// Companions walking up stop at the kerb back from its edge (-0.6 m);
+/// one moving past here has stepped off.
 const COMPANION_STOP_M: f64 = -0.5;
 
 /// The companion the ego gives way to, if any is stepping in or on the
@@ -114,7 +160,7 @@ fn companion_in_the_way(companions: &[Track]) -> Option<crate::observation::Samp
 /// crosser would already have moved (by `NO_STEP_OUT_BY_S`, or with the
 /// ego due within `COMMIT_ETA_S`): a standing pedestrian then waits for
 /// the ego.
-pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
+pub(crate) fn expert(v: f64, v_max: f64, time_s: f64, d: f64, p: &Track) -> Move {
     let lat = p.now.position_m;
     let vel = p.now.velocity_mps;
     if d < 0.0 || (lat > CLEAR_M + 0.1 && vel >= -0.1) {
@@ -127,10 +173,10 @@ pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
     let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
     // Crossing: the car waits it out whole, and then goes.
     if !kerb && vel > 0.3 {
-        return Move::go(give_way(v, d, lat, vel));
+        return Move::go(give_way(v, v_max, d, lat, vel));
     }
     if !kerb || at_edge || setting_off {
-        return Move::not_yet(give_way(v, d, lat, vel));
+        return Move::not_yet(give_way(v, v_max, d, lat, vel));
     }
     let eta = if v > 0.5 { d / v } else { f64::INFINITY };
     // It walked up and stopped back from the edge: it waits for the ego.
@@ -149,9 +195,9 @@ pub(crate) fn expert(v: f64, time_s: f64, d: f64, p: &Track) -> Move {
 }
 
 /// The cue follower: go as soon as the pedestrian is not moving into the road.
-pub(crate) fn cue_follower(v: f64, _v_max: f64, d: f64, p: &Track) -> Action {
+pub(crate) fn cue_follower(v: f64, v_max: f64, d: f64, p: &Track) -> Action {
     let lat = p.now.position_m;
     let crossed = lat > CLEAR_M + 0.3;
     let coming = p.now.velocity_mps > 0.2 || (lat > 0.0 && !crossed);
-    if d < 0.0 || crossed || !coming { go() } else { give_way(v, d, lat, p.now.velocity_mps) }
+    if d < 0.0 || crossed || !coming { go() } else { give_way(v, v_max, d, lat, p.now.velocity_mps) }
 }

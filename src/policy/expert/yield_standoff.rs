@@ -89,7 +89,31 @@ pub(super) const RULES: super::Rules = super::Rules {
         [other, follower] => cue_follower(v, v_max, scene.ego_to_conflict_m(), other, follower),
         _ => super::hold_back(scene, v),
     },
+    watch: |obs, _confirm| match obs.scene.tracks() {
+        [other, follower] => {
+            let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);
+            follower_may_meet_the_ego(v, v_max, obs.scene.ego_to_conflict_m(), other, follower)
+        }
+        _ => false,
+    },
 };
+
+/// Whether the car behind (not the tier's question) may be in the zone
+/// with the ego, going now at full throttle: it has not entered yet, moves
+/// toward it, and neither passes well after the ego nor clears before it;
+/// unless it is queued behind the first car, which is ahead of it on its
+/// road and stopping or yielding (it cannot pass through it), or its own
+/// readings show it braking to a stop short of the zone.
+fn follower_may_meet_the_ego(v: f64, v_max: f64, d: f64, other: &Track, follower: &Track) -> bool {
+    let (p, vf) = (follower.now.position_m, follower.now.velocity_mps);
+    if p <= 0.0 || vf <= 0.3 || passes_before(v, v_max, d, follower) || arrives_after(v, v_max, d, follower) {
+        return false;
+    }
+    let queued = other.now.position_m < p && (stopping(other) || yielding(other));
+    let braking = -follower.recent_accel();
+    let stops_short = braking > 0.3 && vf * vf / (2.0 * braking) < p;
+    !queued && !stops_short
+}
 
 /// The expert: go once the first car has stopped at its line or began to
 /// brake for the ego (and keep going while it stays slow), or once both

@@ -2,6 +2,10 @@
 //! its inputs so that tests can inject the fault it guards against and see
 //! it fail.
 
+mod defensive;
+
+pub use defensive::{DefensiveCell, WaitCell, check_defensive, defensive_readers, reasons_to_wait};
+
 use crate::adversary::learned::{self, LearnSpec, LearnedScore};
 use crate::adversary::{self, Score, SearchSpec, TRAIN_SEED_BASE};
 use crate::baselines::{Cell, CellSummary, GridSpec, run_grid};
@@ -41,6 +45,16 @@ pub const HEDGE_FROM_START: [ScenarioKind; 2] = [ScenarioKind::YieldStandoff, Sc
 /// (m/s; the 15th percentile of older pedestrians' walking speed is 0.92,
 /// of younger ones' 1.15, and the MUTCD's design speed 1.2) ...
 pub const SLOWEST_CROSSING_MPS: f64 = 0.9;
+/// ... a walker takes at least this long (s) to come to rest from its pace,
+/// so that a reading can show it slowing (even a rapid stop on a signal
+/// takes young adults 0.46 s from 1.29 m/s, older ones 0.57 s, Tirosh and
+/// Sparrow 2004; a planned stop at a kerb is no sharper) ...
+pub const QUICKEST_STOP_S: f64 = 0.5;
+/// ... a pedestrian who follows another across sets out within this (s)
+/// of it, and walks beside it (neighbours of a crossing pedestrian follow
+/// it, Faria, Krause and Krause 2010; a group walks abreast at one pace,
+/// Moussaïd et al. 2010) ...
+pub const WIDEST_FOLLOW_S: f64 = 1.0;
 /// ... no car brakes harder than this (m/s^2) on an open road (what
 /// lifting off the accelerator slows a car by) ...
 pub const OPEN_ROAD_BRAKE_MPS2: f64 = 0.5;
@@ -567,36 +581,51 @@ pub fn road_user_motion(
 }
 
 /// Road users move as people do: every pedestrian crosses at
-/// [`SLOWEST_CROSSING_MPS`] or faster, no car brakes harder than
+/// [`SLOWEST_CROSSING_MPS`] or faster, comes to rest over
+/// [`QUICKEST_STOP_S`] or more, follows another across within
+/// [`WIDEST_FOLLOW_S`], no car brakes harder than
 /// [`OPEN_ROAD_BRAKE_MPS2`] on an open road, and no car drives faster than
 /// the speed limit the scene states. Each figure is printed beside its bar;
 /// one outside it fails the line (docs/validate.md gives the sources and
 /// the reasons a figure is still outside).
 pub fn check_motion(cells: &[MotionCell]) -> Check {
+    /// Which way a figure's bar lies.
+    enum Bar {
+        AtLeast(f64),
+        AtMost(f64),
+    }
     let mut parts = Vec::new();
     let mut pass = !cells.is_empty();
-    let slowest =
-        cells.iter().filter_map(|c| c.motion.slowest_crossing_mps.map(|v| (v, c))).min_by(|a, b| a.0.total_cmp(&b.0));
-    if let Some((v, c)) = slowest {
-        let ok = v + 1e-9 >= SLOWEST_CROSSING_MPS;
-        pass &= ok;
-        parts.push(format!(
-            "slowest crossing {v:.2} m/s on {} (bar >= {SLOWEST_CROSSING_MPS:.2}{})",
-            label(c.scenario, c.tier),
-            if ok { "" } else { ", outside" }
-        ));
-    }
-    let hardest = cells.iter().max_by(|a, b| a.motion.open_road_brake_mps2.total_cmp(&b.motion.open_road_brake_mps2));
-    if let Some(c) = hardest {
-        let a = c.motion.open_road_brake_mps2;
-        let ok = a <= OPEN_ROAD_BRAKE_MPS2 + 1e-9;
-        pass &= ok;
-        parts.push(format!(
-            "open-road braking at most {a:.2} m/s^2 on {} (bar <= {OPEN_ROAD_BRAKE_MPS2:.2}{})",
-            label(c.scenario, c.tier),
-            if ok { "" } else { ", outside" }
-        ));
-    }
+    // The worst cell's figure against its bar: pass or "outside", printed
+    // by `say` (the figure, the cell, the bar's words).
+    let mut bound = |figure: fn(&MotionCell) -> Option<f64>, bar: Bar, say: &dyn Fn(f64, &str, &str) -> String| {
+        let figures = cells.iter().filter_map(|c| figure(c).map(|v| (v, c)));
+        let worst = match bar {
+            Bar::AtLeast(_) => figures.min_by(|a, b| a.0.total_cmp(&b.0)),
+            Bar::AtMost(_) => figures.max_by(|a, b| a.0.total_cmp(&b.0)),
+        };
+        if let Some((v, c)) = worst {
+            let (ok, words) = match bar {
+                Bar::AtLeast(x) => (v + 1e-9 >= x, format!("bar >= {x:.2}")),
+                Bar::AtMost(x) => (v <= x + 1e-9, format!("bar <= {x:.2}")),
+            };
+            pass &= ok;
+            let words = if ok { words } else { format!("{words}, outside") };
+            parts.push(say(v, &label(c.scenario, c.tier), &words));
+        }
+    };
+    bound(|c| c.motion.slowest_crossing_mps, Bar::AtLeast(SLOWEST_CROSSING_MPS), &|v, at, bar| {
+        format!("slowest crossing {v:.2} m/s on {at} ({bar})")
+    });
+    bound(|c| c.motion.quickest_stop_s, Bar::AtLeast(QUICKEST_STOP_S), &|v, at, bar| {
+        format!("quickest stop from walking {v:.2} s on {at} ({bar})")
+    });
+    bound(|c| c.motion.widest_follow_s, Bar::AtMost(WIDEST_FOLLOW_S), &|v, at, bar| {
+        format!("a follower sets out at most {v:.2} s after the one it follows on {at} ({bar})")
+    });
+    bound(|c| Some(c.motion.open_road_brake_mps2), Bar::AtMost(OPEN_ROAD_BRAKE_MPS2), &|v, at, bar| {
+        format!("open-road braking at most {v:.2} m/s^2 on {at} ({bar})")
+    });
     let over = cells
         .iter()
         .filter_map(|c| c.motion.fastest_car_mps.map(|v| (v - c.speed_limit_mps, v, c)))
@@ -797,36 +826,77 @@ pub fn hedging_readers(
 /// [`hedging_drivers`] succeeds >= 0.85 with collisions <= 0.02 on its
 /// cells (the caution line's bars).
 pub fn check_hedging(cells: &[HedgeCell]) -> Check {
-    let below = cells.iter().filter(|c| c.success < CAUTIOUS_SUCCESS || c.collision > CAUTIOUS_COLLISION).count();
-    let lowest = cells.iter().min_by(|a, b| a.success.total_cmp(&b.success));
-    let worst_collision = cells.iter().max_by(|a, b| a.collision.total_cmp(&b.collision));
-    let (Some(lowest), Some(worst_collision)) = (lowest, worst_collision) else {
-        return Check::new("hedging readers win", false, "no cells".into());
-    };
-    // Per cell, the lowest success and the highest collision rate of any
-    // way of driving tried there.
-    let mut keys: Vec<(ScenarioKind, Tier)> = cells.iter().map(|c| (c.scenario, c.tier)).collect();
-    keys.dedup();
-    let per_cell: Vec<String> = keys
-        .iter()
-        .map(|&(s, t)| {
-            let here = cells.iter().filter(|c| (c.scenario, c.tier) == (s, t));
-            let (low, high) = here.fold((1.0f64, 0.0f64), |(l, h), c| (l.min(c.success), h.max(c.collision)));
-            format!("{} {low:.2}/{high:.2}", label(s, t))
-        })
-        .collect();
-    let figure = format!(
-        "lowest success {:.3} ({} on {}, bar {CAUTIOUS_SUCCESS:.2}); highest collision {:.3} ({} on {}, bar {CAUTIOUS_COLLISION:.2}); {below} of {} drivers below a bar; per cell lowest success/highest collision: {}",
-        lowest.success,
-        lowest.driver,
-        label(lowest.scenario, lowest.tier),
-        worst_collision.collision,
-        worst_collision.driver,
-        label(worst_collision.scenario, worst_collision.tier),
-        cells.len(),
-        per_cell.join(", ")
-    );
-    Check::new("hedging readers win", below == 0, figure)
+    match CautionSummary::of(&cells.iter().map(HedgeCell::tried).collect::<Vec<_>>()) {
+        Some(sum) => Check::new(
+            "hedging readers win",
+            sum.below == 0,
+            format!("{}; per cell lowest success/highest collision: {}", sum.headline, sum.per_cell),
+        ),
+        None => Check::new("hedging readers win", false, "no cells".into()),
+    }
+}
+
+impl HedgeCell {
+    fn tried(&self) -> Tried<'_> {
+        Tried {
+            scenario: self.scenario,
+            tier: self.tier,
+            driver: &self.driver,
+            success: self.success,
+            collision: self.collision,
+        }
+    }
+}
+
+/// One way of driving on one cell, held to the caution bars.
+struct Tried<'a> {
+    scenario: ScenarioKind,
+    tier: Tier,
+    driver: &'a str,
+    success: f64,
+    collision: f64,
+}
+
+/// What a line that holds ways of driving to the caution bars
+/// ([`CAUTIOUS_SUCCESS`], [`CAUTIOUS_COLLISION`]) prints of them.
+struct CautionSummary {
+    /// How many fall below a bar.
+    below: usize,
+    /// The lowest success and the highest collision rate, each with the
+    /// way of driving and the cell, and how many fall below a bar.
+    headline: String,
+    /// Per cell, the lowest success and the highest collision rate of any
+    /// way of driving tried there.
+    per_cell: String,
+}
+
+impl CautionSummary {
+    fn of(tried: &[Tried]) -> Option<CautionSummary> {
+        let lowest = tried.iter().min_by(|a, b| a.success.total_cmp(&b.success))?;
+        let worst_collision = tried.iter().max_by(|a, b| a.collision.total_cmp(&b.collision))?;
+        let below = tried.iter().filter(|c| c.success < CAUTIOUS_SUCCESS || c.collision > CAUTIOUS_COLLISION).count();
+        let mut keys: Vec<(ScenarioKind, Tier)> = tried.iter().map(|c| (c.scenario, c.tier)).collect();
+        keys.dedup();
+        let per_cell: Vec<String> = keys
+            .iter()
+            .map(|&(s, t)| {
+                let here = tried.iter().filter(|c| (c.scenario, c.tier) == (s, t));
+                let (low, high) = here.fold((1.0f64, 0.0f64), |(l, h), c| (l.min(c.success), h.max(c.collision)));
+                format!("{} {low:.2}/{high:.2}", label(s, t))
+            })
+            .collect();
+        let headline = format!(
+            "lowest success {:.3} ({} on {}, bar {CAUTIOUS_SUCCESS:.2}); highest collision {:.3} ({} on {}, bar {CAUTIOUS_COLLISION:.2}); {below} of {} drivers below a bar",
+            lowest.success,
+            lowest.driver,
+            label(lowest.scenario, lowest.tier),
+            worst_collision.collision,
+            worst_collision.driver,
+            label(worst_collision.scenario, worst_collision.tier),
+            tried.len(),
+        );
+        Some(CautionSummary { below, headline, per_cell: per_cell.join(", ") })
+    }
 }
 
 /// How much time a driver who gives way has left on one cell: over the
@@ -1127,6 +1197,8 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, st
         });
     let late = late_readers(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
     let hedging = hedging_readers(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
+    let defensive = defensive_readers(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
+    let waits = reasons_to_wait(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
     let give_way = give_way_time(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
     let motion = road_user_motion(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
     let forecasts = forecast_references(set, &ScenarioKind::ALL, &Tier::ALL, seeds.clone());
@@ -1148,6 +1220,7 @@ pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, st
         check_give_way_time(&give_way),
         check_caution(&cells),
         check_hedging(&hedging),
+        check_defensive(&defensive, &waits),
         check_gap_acceptance(&unstoppable, &blind),
         check_motion(&motion),
         check_forecast(&forecasts),
