@@ -137,10 +137,11 @@ impl std::fmt::Display for Hedging {
             (1, true) => "a decision late, first go holding".to_string(),
             (n, soft) => format!("{n} decisions late{}", if soft { ", first go holding" } else { "" }),
         };
+        if self.defensive {
+            write!(f, "defensive, ")?;
+        }
         if self.hedge_s > 0.0 {
             write!(f, "braking {:.1} m/s^2 for {:.1} s, then {reads}", self.brake_mps2, self.hedge_s)?;
-        } else if self.defensive {
-            write!(f, "defensive, reading {reads}")?;
         } else {
             write!(f, "reading {reads}")?;
         }
