@@ -6,7 +6,8 @@
 //! the hidden intent gives such a driver a reason to wait past the
 //! evidence.
 
-use super::{CautionSummary, Check, HedgeCell, cells_of, label};
+use super::hedging::CautionSummary;
+use super::{Check, HedgeCell, cells_of, label};
 use crate::episode::{Episode, Outcome};
 use crate::policy::{Expert, Hedging, Policy};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};

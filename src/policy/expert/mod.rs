@@ -23,7 +23,7 @@ pub use hedging::{HEDGE_BRAKE_MPS2, HEDGE_SECONDS, Hedging, HedgingReader};
 
 /// Whether a road user that is not the tier's question gives a careful
 /// driver reason not to pass the conflict on `obs` (its scenario's
-/// [`Rules::watch`]; `confirm`: a walker is stopped only once two readings
+/// rules' `watch`; `confirm`: a walker is stopped only once two readings
 /// show it still). `validate` reads it at the evidence turn.
 pub fn watching(obs: &Observation, confirm: bool) -> bool {
     rules(&obs.scene).is_some_and(|r| (r.watch)(obs, confirm))
