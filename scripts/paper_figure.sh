@@ -15,10 +15,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-$(mktemp -d -t negotiator-paper-figure.XXXXXX)}
 mkdir -p "$OUT/runs" results/figures
-BIN=$PWD/target/release/negotiator
 N=${N:-50}
 
 cargo build --release --quiet
+# The binary cargo just built, wherever CARGO_TARGET_DIR puts it (absolute:
+# the servers below run from elsewhere).
+BIN=$(cd "${CARGO_TARGET_DIR:-target}" && pwd)/release/negotiator
 
 SERVE_PID=""
 cleanup() { if [ -n "$SERVE_PID" ]; then kill "$SERVE_PID" 2>/dev/null || true; wait "$SERVE_PID" 2>/dev/null || true; fi; }

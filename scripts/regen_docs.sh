@@ -8,7 +8,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
+# The binary cargo just built, wherever CARGO_TARGET_DIR puts it.
+bin=${CARGO_TARGET_DIR:-target}/release/negotiator
 NEGOTIATOR_REGEN_DOCS=1 cargo test --release --quiet --test it -- docs::generated_blocks
-target/release/negotiator baselines --format csv >results/baselines/baselines.csv
-target/release/negotiator baselines --format md >results/baselines/baselines.md
+"$bin" baselines --format csv >results/baselines/baselines.csv
+"$bin" baselines --format md >results/baselines/baselines.md
 git status --short README.md docs results/baselines

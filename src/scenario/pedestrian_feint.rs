@@ -925,3 +925,49 @@ impl World for PedestrianWorld {
         plan
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Stream;
+
+    fn world(tier: Tier) -> PedestrianWorld {
+        let text = DEF.builtin_file.1;
+        let params: PedestrianParams = toml::from_str(&text[text.find("[episode]").unwrap_or(0)..]).unwrap();
+        PedestrianWorld::new(&params, tier, Disposition::Feinter, &mut EpisodeRng::new(&[0], Stream::Geometry))
+    }
+
+    /// The scene's rule for when the crosswalk is clear is the collision
+    /// test's, to the centimetre: a car whose front is between 0 and -5.4 m
+    /// past the line is on the crossing, and being on it while any centre
+    /// (the pedestrian's or a companion's) is between 0 and 7.0 m is a
+    /// collision; a centre just off the road on either side is not.
+    #[test]
+    fn the_scene_states_the_collision_tests_rule_for_a_clear_crossing() {
+        assert!(DEF.situation.contains("(on it: 0 to -5.4 m)"), "{}", DEF.situation);
+        assert!(DEF.situation.contains("while any centre is between 0 and 7.0 is a collision"));
+        assert!((FAR_KERB - 7.0).abs() < 1e-12 && (2.0 * X_HALF - 5.4).abs() < 1e-9);
+        let on = |d: f64| Body::new(-X_HALF - d, 0.0);
+        for who in 0..3 {
+            for (lat, collides) in [(-0.01, false), (0.01, true), (3.5, true), (6.99, true), (7.01, false)] {
+                let mut w = world(Tier::T1);
+                // Everyone else well off the road, the car stopped on the crossing.
+                w.lat = -2.0;
+                for c in w.companions.iter_mut() {
+                    c.lat = -2.0;
+                }
+                if who == 0 {
+                    w.lat = lat
+                } else {
+                    w.companions[who - 1].lat = lat
+                }
+                for d in [-0.01, -2.7, -5.39] {
+                    assert_eq!(w.cuts_off(&on(d)), collides, "road user {who} at {lat}, car at {d}");
+                }
+                for d in [0.01, -5.41] {
+                    assert!(!w.cuts_off(&on(d)), "road user {who} at {lat}, car at {d}: off the crossing");
+                }
+            }
+        }
+    }
+}
