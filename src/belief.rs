@@ -37,35 +37,33 @@ pub fn prompt_paragraph(kind: ScenarioKind) -> String {
     )
 }
 
-/// Words that would tell a model which behaviours exist or how a tier
-/// hides them: disposition names, tier mechanics, and the words for them.
+/// Words that would tell a model how a tier hides the intent, or which
+/// behaviours exist beyond the dispositions' own names (see [`leak_words`]).
 #[cfg(test)]
-pub(crate) const LEAK_WORDS: [&str; 17] = [
-    "committed",
-    "yielder",
-    "crosser",
-    "feint",
-    "makes_room",
-    "makes room",
-    "disposition",
-    "bluff",
-    "dart",
-    "tier",
-    "reveal",
-    "noise",
-    "noisy",
-    "pretend",
-    "fake",
-    "deceiv",
-    "trick",
-];
+const MECHANICS_WORDS: [&str; 12] =
+    ["feint", "disposition", "bluff", "dart", "tier", "reveal", "noise", "noisy", "pretend", "fake", "deceiv", "trick"];
+
+/// Words that would tell a model which behaviours exist or how a tier
+/// hides them: every disposition's name as its scenario declares it (also
+/// with spaces for underscores), and [`MECHANICS_WORDS`].
+#[cfg(test)]
+pub(crate) fn leak_words() -> Vec<String> {
+    let mut words: Vec<String> = Vec::new();
+    for d in crate::scenario::Disposition::all() {
+        words.push(d.name().to_string());
+        words.push(d.name().replace('_', " "));
+    }
+    words.extend(MECHANICS_WORDS.iter().map(|w| w.to_string()));
+    words.dedup();
+    words
+}
 
 /// The leak check: a prompt shown to a model may name none of
-/// [`LEAK_WORDS`] (case-insensitive). Returns the words found.
+/// [`leak_words`] (case-insensitive). Returns the words found.
 #[cfg(test)]
-pub(crate) fn check_neutral(text: &str) -> Result<(), Vec<&'static str>> {
+pub(crate) fn check_neutral(text: &str) -> Result<(), Vec<String>> {
     let lower = text.to_lowercase();
-    let found: Vec<&'static str> = LEAK_WORDS.iter().copied().filter(|w| lower.contains(w)).collect();
+    let found: Vec<String> = leak_words().into_iter().filter(|w| lower.contains(w.as_str())).collect();
     if found.is_empty() { Ok(()) } else { Err(found) }
 }
 
@@ -304,8 +302,14 @@ mod tests {
             assert_eq!(check_neutral(&prompt), Ok(()), "{kind}");
         }
         let leaky = "your probability that the other car is a yielder rather than committed";
-        assert_eq!(check_neutral(leaky), Err(vec!["committed", "yielder"]));
-        assert_eq!(check_neutral("Is the pedestrian going to DART out?"), Err(vec!["dart"]));
+        assert_eq!(check_neutral(leaky), Err(vec!["committed".to_string(), "yielder".to_string()]));
+        assert_eq!(check_neutral("Is the pedestrian going to DART out?"), Err(vec!["dart".to_string()]));
+        // Every disposition a scenario declares is a leak word, as is its name with spaces.
+        assert_eq!(check_neutral("the lane car makes room"), Err(vec!["makes room".to_string()]));
+        let words = leak_words();
+        for d in crate::scenario::Disposition::all() {
+            assert!(words.iter().any(|w| w == d.name()), "{d}");
+        }
     }
 
     #[test]

@@ -213,6 +213,7 @@ impl Episode {
             accel_mps2: ego.a,
             to_goal_m: goal_s - ego.s,
             speed_limit_mps: common.speed_limit_mps,
+            speed_limit_ahead_mps: world.speed_limit_ahead(&ego),
         };
         let observation = Observation {
             time_s: 0.0,
@@ -367,6 +368,7 @@ impl Episode {
                 accel_mps2: self.ego.a,
                 to_goal_m: self.goal_s - self.ego.s,
                 speed_limit_mps: self.ego_speed_limit(),
+                speed_limit_ahead_mps: self.world.speed_limit_ahead(&self.ego),
             },
             scene,
             last_action: self.held,

@@ -2,7 +2,9 @@
 //! not read text (a classic RL agent, a small network). Every scenario and
 //! tier gives the same length and the same slot meanings; a slot a scenario
 //! does not use holds 0 and its `present` flag says so. Units are SI (m,
-//! m/s, m/s^2, s), unscaled: normalise in the agent.
+//! m/s, m/s^2, s), unscaled: normalise in the agent. It names no scenario:
+//! its layout is the same whatever scenarios the benchmark holds, so that
+//! adding one changes no trained agent's input (an agent learns one cell).
 //!
 //! It is computed from the observation rounded to the scene text's
 //! precision, so it carries exactly what the text does, nothing the
@@ -21,8 +23,9 @@ use crate::action::{Action, Maneuver};
 use crate::observation::{HISTORY_LEN, Observation};
 use crate::scenario::{ScenarioKind, Tier};
 
-/// Road-user slots in the vector (the most any scene has).
-const TRACK_SLOTS: usize = 3;
+/// Road-user slots in the vector: the most a scene may have, so that the
+/// layout is the same whatever scenarios the benchmark holds.
+const TRACK_SLOTS: usize = crate::scenario::MAX_TRACKS;
 
 /// Collects (name, value) pairs in layout order; the names and the values
 /// come from the same code, so the published layout cannot drift.
@@ -47,10 +50,6 @@ impl Layout {
 
 fn layout(o: &Observation, tier: Tier, with_names: bool) -> Layout {
     let mut f = Layout { names: with_names.then(|| Vec::with_capacity(64)), values: Vec::with_capacity(64) };
-    let kind = o.scenario();
-    for k in ScenarioKind::ALL {
-        f.flag(format_args!("scenario.{}", k.name()), k == kind);
-    }
     for t in Tier::ALL {
         f.flag(format_args!("tier.{}", t.number()), t == tier);
     }
@@ -62,6 +61,8 @@ fn layout(o: &Observation, tier: Tier, with_names: bool) -> Layout {
     f.put("ego.accel_mps2", o.ego.accel_mps2);
     f.put("ego.to_goal_m", o.ego.to_goal_m);
     f.put("ego.speed_limit_mps", o.ego.speed_limit_mps);
+    f.flag("ego.speed_limit_ahead.present", o.ego.speed_limit_ahead_mps.is_some());
+    f.put("ego.speed_limit_ahead_mps", o.ego.speed_limit_ahead_mps.unwrap_or(0.0));
     let place = o.scene.place();
     f.put("ego.to_conflict_m", place[0]);
     f.put("ego.ramp_left_m", place.get(1).copied().unwrap_or(0.0));

@@ -162,12 +162,18 @@ mod tests {
     #[test]
     fn correctness_reads_the_choice_made_and_never_credits_a_collision() {
         use Choice::*;
-        assert_eq!(decision_correctness(Disposition::Committed, Outcome::Timeout, Some(GiveWay)), 1.0);
-        assert_eq!(decision_correctness(Disposition::Committed, Outcome::Success, Some(Go)), 0.0);
-        assert_eq!(decision_correctness(Disposition::Yielder, Outcome::Success, Some(Go)), 1.0);
-        assert_eq!(decision_correctness(Disposition::Yielder, Outcome::Collision, Some(Go)), 0.0);
-        assert_eq!(decision_correctness(Disposition::Committed, Outcome::Collision, Some(GiveWay)), 0.0);
-        assert_eq!(decision_correctness(Disposition::Feinter, Outcome::Timeout, None), 0.0);
-        assert_eq!(decision_correctness(Disposition::Crosser, Outcome::Timeout, None), 0.0);
+        assert_eq!(
+            decision_correctness(crate::scenario::yield_standoff::COMMITTED, Outcome::Timeout, Some(GiveWay)),
+            1.0
+        );
+        assert_eq!(decision_correctness(crate::scenario::yield_standoff::COMMITTED, Outcome::Success, Some(Go)), 0.0);
+        assert_eq!(decision_correctness(crate::scenario::yield_standoff::YIELDER, Outcome::Success, Some(Go)), 1.0);
+        assert_eq!(decision_correctness(crate::scenario::yield_standoff::YIELDER, Outcome::Collision, Some(Go)), 0.0);
+        assert_eq!(
+            decision_correctness(crate::scenario::yield_standoff::COMMITTED, Outcome::Collision, Some(GiveWay)),
+            0.0
+        );
+        assert_eq!(decision_correctness(crate::scenario::pedestrian_feint::FEINTER, Outcome::Timeout, None), 0.0);
+        assert_eq!(decision_correctness(crate::scenario::pedestrian_feint::CROSSER, Outcome::Timeout, None), 0.0);
     }
 }

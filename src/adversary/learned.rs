@@ -158,6 +158,19 @@ fn normalisation(config: &ScenarioConfig, tier: Tier, rng: &mut EpisodeRng) -> (
 
 /// Train the adversary on one cell.
 pub fn train(config: &ScenarioConfig, tier: Tier, spec: LearnSpec) -> LinearPolicy {
+    train_on(config, tier, spec, false)
+}
+
+/// Train a blind learner on one cell: the same search, on the masked view
+/// (the road users' slots frozen at their first reading). What it wins, it
+/// wins without reading: outwaiting, racing, a schedule. It catches a
+/// world that a reader can win too, where the reading learner need not
+/// look for a shortcut.
+pub fn train_blind(config: &ScenarioConfig, tier: Tier, spec: LearnSpec) -> LinearPolicy {
+    train_on(config, tier, spec, true)
+}
+
+fn train_on(config: &ScenarioConfig, tier: Tier, spec: LearnSpec, masked: bool) -> LinearPolicy {
     let mut rng = EpisodeRng::new(&[spec.search_seed, tier.number() as u64, config.kind().rng_id()], Stream::Policy);
     let (mean, scale) = normalisation(config, tier, &mut rng);
     let dim = (mean.len() + 1) * DISCRETE_ACTIONS.len();
@@ -177,7 +190,7 @@ pub fn train(config: &ScenarioConfig, tier: Tier, spec: LearnSpec) -> LinearPoli
                     centre.iter().zip(&spread).map(|(c, s)| c + s * rng.standard_noise()).collect()
                 };
                 let policy = LinearPolicy { mean: mean.clone(), scale: scale.clone(), weights };
-                (evaluate(config, tier, &policy, &seeds, false).reward, policy.weights)
+                (evaluate(config, tier, &policy, &seeds, masked).reward, policy.weights)
             })
             .collect();
         scored.sort_by(|a, b| b.0.total_cmp(&a.0));

@@ -1,7 +1,7 @@
 //! `negotiator validate`: the benchmark's invariants, one line each.
 
 use super::exit;
-use crate::scenario::ScenarioSet;
+use crate::scenario::{ScenarioKind, ScenarioSet};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -13,6 +13,10 @@ pub struct ValidateArgs {
     /// First seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Scenarios to check: all, or a comma-separated list (a line over
+    /// several scenarios then reads only these).
+    #[arg(long, default_value = "all")]
+    pub scenario: String,
     /// Replace a built-in scenario with this TOML file (repeatable).
     #[arg(long = "scenario-file", value_name = "PATH")]
     pub scenario_files: Vec<PathBuf>,
@@ -34,6 +38,7 @@ impl ValidateArgs {
         if self.episodes == 0 {
             return Err(super::usage("-n/--episodes: must be at least 1"));
         }
+        let scenarios = super::parse_list(&self.scenario, &ScenarioKind::ALL, "--scenario")?;
         let set = ScenarioSet::with_overrides(&self.scenario_files)?;
         if self.search_budget == 0 || self.search_budget > crate::adversary::MAX_BUDGET {
             return Err(super::usage(format!(
@@ -42,7 +47,7 @@ impl ValidateArgs {
                 self.search_budget
             )));
         }
-        let checks = crate::validate::run(&set, self.episodes, self.seed, self.search_budget, self.strict);
+        let checks = crate::validate::run(&set, &scenarios, self.episodes, self.seed, self.search_budget, self.strict);
         let mut out = String::new();
         if self.json {
             out.push_str(&serde_json::to_string_pretty(&checks)?);

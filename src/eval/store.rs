@@ -233,7 +233,7 @@ mod tests {
     use super::*;
     use crate::episode::Outcome;
     use crate::rundir::{Invocation, RunStatus, Selection, Shard, Totals, read_run_info, write_run_info};
-    use crate::scenario::{Disposition, ScenarioKind, Tier};
+    use crate::scenario::{ScenarioKind, Tier};
 
     fn line(seed: u64, rollout: u32) -> String {
         let s = EpisodeScalars {
@@ -242,7 +242,7 @@ mod tests {
             tier: Tier::T1,
             seed,
             rollout,
-            disposition: Disposition::Committed,
+            disposition: crate::scenario::yield_standoff::COMMITTED,
             outcome: Outcome::Success,
             reward: 0.9,
             decision_correctness: 1.0,

@@ -222,7 +222,7 @@ mod tests {
             tier: Tier::T2,
             seed,
             rollout: 0,
-            disposition: crate::scenario::Disposition::Crosser,
+            disposition: crate::scenario::pedestrian_feint::CROSSER,
             outcome,
             reward: match outcome {
                 Outcome::Success => 0.9,

@@ -25,6 +25,10 @@ pub struct EgoView {
     pub accel_mps2: f64,
     pub to_goal_m: f64,
     pub speed_limit_mps: f64,
+    /// The speed limit of the road the ego is to join, while it is not on
+    /// it yet and it differs from the episode's (the merge's through lane).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_limit_ahead_mps: Option<f64>,
 }
 
 /// What a policy sees at one decision.
@@ -78,6 +82,7 @@ impl Observation {
                 accel_mps2: r1(self.ego.accel_mps2),
                 to_goal_m: r1(self.ego.to_goal_m),
                 speed_limit_mps: r1(self.ego.speed_limit_mps),
+                speed_limit_ahead_mps: self.ego.speed_limit_ahead_mps.map(r1),
             },
             scene,
             last_action: self.last_action.map(|a| Action {

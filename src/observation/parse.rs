@@ -63,7 +63,13 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
     let turn = numbers_of(text, "Turn", 4)?;
     let place_len = scenario.place_numbers();
     let ego_expected = place_len + 4;
-    let ego = numbers_of(text, "You", ego_expected)?;
+    // The limit of the road the ego is to join, when the line shows one, is its last number.
+    let mut ego = numbers(line(text, "You")?);
+    let speed_limit_ahead_mps = match ego.len() {
+        n if n == ego_expected + 1 => ego.pop(),
+        n if n == ego_expected => None,
+        _ => return Err(SceneParseError::BadNumbers { line: "You", expected: ego_expected }),
+    };
     let (speed_mps, accel_mps2) = (ego[0], ego[1]);
     let (to_goal_m, speed_limit_mps) = (ego[ego_expected - 2], ego[ego_expected - 1]);
     let tracks = scenario
@@ -96,7 +102,7 @@ pub fn parse_scene(text: &str) -> Result<Observation, SceneParseError> {
         time_s,
         turn: turn[0] as u32,
         turn_budget: turn[1] as u32,
-        ego: EgoView { speed_mps, accel_mps2, to_goal_m, speed_limit_mps },
+        ego: EgoView { speed_mps, accel_mps2, to_goal_m, speed_limit_mps, speed_limit_ahead_mps },
         scene,
         last_action,
         reading_noise,

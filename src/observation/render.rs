@@ -105,7 +105,7 @@ pub fn render_scene(obs: &Observation) -> String {
     );
     let e = &obs.ego;
     let place = obs.scene.place_text(f1);
-    let _ = writeln!(
+    let _ = write!(
         out,
         "You: speed {} m/s, acceleration {} m/s^2, {place}, {} m to your goal, speed limit {} m/s",
         Fixed(e.speed_mps, 1),
@@ -113,6 +113,12 @@ pub fn render_scene(obs: &Observation) -> String {
         Fixed(e.to_goal_m, 1),
         Fixed(e.speed_limit_mps, 1)
     );
+    match e.speed_limit_ahead_mps {
+        Some(ahead) => {
+            let _ = writeln!(out, " ({} m/s on the road you join)", Fixed(ahead, 1));
+        }
+        None => out.push('\n'),
+    }
     for (label, track) in kind.track_labels().iter().zip(obs.scene.tracks()) {
         track_lines(&mut out, label, track, |p, v| kind.track_now(p, v));
     }

@@ -15,7 +15,7 @@ use crate::episode::Outcome;
 use crate::par::par_map;
 use crate::rundir::lines::{LineRef, read_records_at};
 use crate::rundir::record::RolloutRecord;
-use crate::scenario::ScenarioKind;
+use crate::scenario::{Disposition, ScenarioKind};
 use serde::Serialize;
 use std::collections::HashMap;
 
@@ -245,8 +245,6 @@ pub struct DrillData {
     transcripts: Vec<TranscriptOut>,
 }
 
-const DISPOSITIONS: [&str; 5] = ["committed", "yielder", "crosser", "feinter", "makes_room"];
-
 fn outcome_code(o: Outcome) -> u8 {
     match o {
         Outcome::Success => 0,
@@ -278,7 +276,7 @@ impl Interner {
 }
 
 /// Build the embedded data. `loaded` in embedding order.
-pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> DrillData {
+pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Result<DrillData, ReportError> {
     let mut table = Interner::default();
     let mut transcripts = Vec::new();
     let mut transcript_of: HashMap<(usize, usize), i32> = HashMap::new();
@@ -331,17 +329,30 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
         transcript_of.insert((l.model, l.episode), transcripts.len() as i32);
         transcripts.push(out);
     }
+    // The labels the page shows, as the scenarios declare them: an episode
+    // whose label is not among them is refused, never shown as another.
+    let dispositions = Disposition::all();
     let mut episodes = Vec::new();
     for (m, model) in data.models.iter().enumerate() {
         for (i, e) in model.episodes.iter().enumerate() {
+            let undeclared = |what: &'static str, name: &str| ReportError::Undeclared {
+                at: format!("{}:{}", data.runs[e.source.run as usize].rollouts_path().display(), e.source.line),
+                what,
+                name: name.to_string(),
+            };
+            let scenario = e.scenario.index().ok_or_else(|| undeclared("scenario", e.scenario.name()))?;
+            let disposition = dispositions
+                .iter()
+                .position(|&d| d == e.disposition)
+                .ok_or_else(|| undeclared("disposition", e.disposition.name()))?;
             episodes.push((
                 m as u16,
-                ScenarioKind::ALL.iter().position(|&s| s == e.scenario).unwrap_or(0) as u8,
+                scenario as u8,
                 e.tier.number(),
                 e.seed,
                 e.rollout,
                 outcome_code(e.outcome),
-                DISPOSITIONS.iter().position(|&d| d == e.disposition.name()).unwrap_or(0) as u8,
+                disposition as u8,
                 round3(e.reward),
                 round3(e.decision_correctness),
                 e.turns_taken,
@@ -354,12 +365,12 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
             ));
         }
     }
-    DrillData {
+    Ok(DrillData {
         models: data.models.iter().map(|m| m.label.clone()).collect(),
         scenarios: ScenarioKind::ALL.iter().map(|s| s.name()).collect(),
         scenes: ScenarioKind::ALL.into_iter().map(scene_out).collect(),
         outcomes: ["success", "collision", "timeout"],
-        dispositions: DISPOSITIONS.to_vec(),
+        dispositions: dispositions.iter().map(|d| d.name()).collect(),
         runs: data.runs.iter().map(|r| r.rollouts_path().display().to_string()).collect(),
         per_cell,
         budget_bytes: TRANSCRIPT_BUDGET,
@@ -367,7 +378,7 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Drill
         strings: table.strings,
         episodes,
         transcripts,
-    }
+    })
 }
 
 impl DrillData {

@@ -66,6 +66,8 @@ pub enum ReportError {
     Pick(#[from] pick::BadPick),
     #[error("{path}: {source}")]
     Pdf { path: String, source: pdf::PdfError },
+    #[error("{at}: an episode of {what} '{name}', which the benchmark's scenarios do not declare")]
+    Undeclared { at: String, what: &'static str, name: String },
 }
 
 #[derive(Debug, Clone)]
@@ -322,7 +324,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         timelines: &timelines,
         style: opts.style,
     });
-    let drill = drill::build(&data, &transcripts, opts.transcripts_per_cell);
+    let drill = drill::build(&data, &transcripts, opts.transcripts_per_cell)?;
     let models = ordered
         .iter()
         .map(|m| ModelInfo {

@@ -5,8 +5,10 @@
 //! parameters build) sits in its own file as a [`ScenarioDef`]. Everything
 //! else reads it through a [`super::ScenarioKind`], a handle on that one
 //! definition: nothing outside a scenario's file matches on which scenario
-//! it is, so a scenario is added by its file, its TOML and one entry in
-//! [`super::ScenarioKind::ALL`] (see `toy.rs` for one added by a test).
+//! it is, so a scenario is added by its files (this definition and its
+//! world, its TOML, its expert's rules, its rules forecaster) and its name
+//! in the registry (`registry!` in `scenario/mod.rs`; docs/architecture.md
+//! lists the steps; `toy.rs` is one a test adds outside it).
 
 use super::world::World;
 use super::{Common, Disposition, FieldCheck, PlanAxes, ScenarioError, Tier};

@@ -2,14 +2,42 @@
 //! parameter files that are compiled into the binary and can be overridden.
 
 mod config;
-pub mod contested_merge;
 mod def;
 mod layout;
-pub mod pedestrian_feint;
 mod scene;
 mod track;
 pub mod world;
-pub mod yield_standoff;
+
+/// The benchmark's scenarios, in the order of every table: the one list of
+/// them. Each name is a scenario's own files: its world
+/// (`src/scenario/<name>.rs`, with its parameter file
+/// `scenarios/<name>.toml`), its expert's rules
+/// (`src/policy/expert/<name>.rs`) and its rules forecaster
+/// (`src/forecast/rules/<name>.rs`). Each of those modules expands this
+/// list into its own part (`registry!(a_macro_of_its_own)`), so that a
+/// scenario without one of its parts does not compile, and the parts
+/// pair up by name.
+macro_rules! registry {
+    ($part:ident) => {
+        $part! { yield_standoff, pedestrian_feint, contested_merge }
+    };
+}
+pub(crate) use registry;
+
+/// The worlds' part of the registry: a module per scenario and
+/// [`ScenarioKind::ALL`].
+macro_rules! worlds {
+    ($($name:ident),+) => {
+        $(pub mod $name;)+
+
+        impl ScenarioKind {
+            /// The benchmark's scenarios, in the order of every table (the
+            /// registry's). A name is looked up here.
+            pub const ALL: [ScenarioKind; [$(stringify!($name)),+].len()] = [$(ScenarioKind(&$name::DEF)),+];
+        }
+    };
+}
+registry!(worlds);
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -21,6 +49,7 @@ pub use contested_merge::MergeParams;
 pub(crate) use def::{ScenarioDef, ScenarioParams, TrackLabel, load};
 pub use layout::{LateralFrame, PlanAxes, RoadUser};
 pub use pedestrian_feint::PedestrianParams;
+pub(crate) use scene::MAX_TRACKS;
 pub use scene::Scene;
 pub use track::{HISTORY_LEN, HISTORY_SPACING_S, ReadingNoise, Sample, Track};
 pub use yield_standoff::YieldParams;
@@ -31,16 +60,23 @@ pub use yield_standoff::YieldParams;
 #[derive(Clone, Copy)]
 pub struct ScenarioKind(&'static ScenarioDef);
 
-#[allow(non_upper_case_globals)] // named as the scenarios were when this was an enum
+// Handles on the first three scenarios by name, for their own files and
+// the tests (named as they were when this was an enum). A scenario added
+// later needs none: the registry is the list.
+#[allow(non_upper_case_globals)]
 impl ScenarioKind {
     pub const YieldStandoff: ScenarioKind = ScenarioKind(&yield_standoff::DEF);
     pub const PedestrianFeint: ScenarioKind = ScenarioKind(&pedestrian_feint::DEF);
     pub const ContestedMerge: ScenarioKind = ScenarioKind(&contested_merge::DEF);
+}
 
-    /// The benchmark's scenarios, in the order of every table. The only
-    /// list of them: a name is looked up here.
-    pub const ALL: [ScenarioKind; 3] =
-        [ScenarioKind::YieldStandoff, ScenarioKind::PedestrianFeint, ScenarioKind::ContestedMerge];
+impl ScenarioKind {
+    /// Where the scenario stands in [`ScenarioKind::ALL`] (and so in every
+    /// part of the registry); `None` for one outside the benchmark (a
+    /// test's scenario).
+    pub(crate) fn index(self) -> Option<usize> {
+        ScenarioKind::ALL.iter().position(|k| *k == self)
+    }
 
     /// The scenario's definition: the one place its facts are read from.
     pub(crate) fn def(self) -> &'static ScenarioDef {
@@ -241,44 +277,69 @@ impl fmt::Display for Tier {
     }
 }
 
-/// The other road user's hidden intent. Privileged: only the simulator and
-/// the graders read it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Disposition {
-    /// Drives through / holds the gap: the ego must give way.
-    Committed,
-    /// Brakes and waits for the ego: the ego should go.
-    Yielder,
-    /// Steps in and crosses: the ego must give way.
-    Crosser,
-    /// Lurches and stops short: the ego should go.
-    Feinter,
-    /// Opens a gap ahead of itself: the ego should merge ahead.
-    MakesRoom,
+/// The other road user's hidden intent, as its scenario declares it (each
+/// scenario's definition lists its two): a name, and whether it requires
+/// the ego to go first. Privileged: only the simulator and the graders
+/// read it. Records spell it by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Disposition {
+    name: &'static str,
+    ego_should_go: bool,
 }
 
 impl Disposition {
+    /// A disposition called `name` (snake_case, as records and the
+    /// drill-down spell it) that requires the ego to go first or not.
+    pub const fn new(name: &'static str, ego_should_go: bool) -> Disposition {
+        Disposition { name, ego_should_go }
+    }
+
     /// Whether this disposition requires the ego to go first (otherwise it
     /// must give way).
     pub fn ego_should_go(self) -> bool {
-        matches!(self, Disposition::Yielder | Disposition::Feinter | Disposition::MakesRoom)
+        self.ego_should_go
     }
 
     pub fn name(self) -> &'static str {
-        match self {
-            Disposition::Committed => "committed",
-            Disposition::Yielder => "yielder",
-            Disposition::Crosser => "crosser",
-            Disposition::Feinter => "feinter",
-            Disposition::MakesRoom => "makes_room",
+        self.name
+    }
+
+    /// Every disposition the benchmark's scenarios declare, each name once,
+    /// in the order of [`ScenarioKind::ALL`] (a scenario's that must give
+    /// way first).
+    pub fn all() -> Vec<Disposition> {
+        let mut all: Vec<Disposition> = Vec::new();
+        for d in ScenarioKind::ALL.iter().flat_map(|k| k.dispositions()) {
+            if !all.iter().any(|a| a.name == d.name) {
+                all.push(d);
+            }
         }
+        all
     }
 }
 
 impl fmt::Display for Disposition {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+impl Serialize for Disposition {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for Disposition {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = std::borrow::Cow::<str>::deserialize(deserializer)?;
+        Disposition::all().into_iter().find(|d| d.name == name).ok_or_else(|| {
+            let known: Vec<&str> = Disposition::all().iter().map(|d| d.name).collect();
+            serde::de::Error::custom(format_args!(
+                "unknown disposition '{name}' (expected one of {})",
+                known.join(", ")
+            ))
+        })
     }
 }
 

@@ -21,7 +21,7 @@ static DEF: ScenarioDef = ScenarioDef {
     name: "toy_crossing",
     scene_name: "toy crossing",
     rng_id: 99,
-    dispositions: [Disposition::Committed, Disposition::Yielder],
+    dispositions: [super::yield_standoff::COMMITTED, super::yield_standoff::YIELDER],
     plan_axes: PlanAxes {
         ego_along_y: true,
         others_along_y: false,
@@ -100,7 +100,7 @@ impl super::ScenarioParams for ToyParams {
             ego: Body::new(-HALF_ZONE - d, v),
             car,
             stop_at: -HALF_ZONE - self.car.stop_line_m,
-            yields: disposition == Disposition::Yielder,
+            yields: disposition == super::yield_standoff::YIELDER,
             approach_speed: car_v,
             history: History::steady(now, -car_v),
         })

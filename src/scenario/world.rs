@@ -95,6 +95,13 @@ pub trait World {
     fn ego_speed_limit(&self, _ego: &Body) -> Option<f64> {
         None
     }
+    /// The speed limit of the road the ego is to join (m/s), while it is
+    /// not on it yet and the world states one other than the episode's
+    /// (the merge's through lane): a driver reads the sign before the
+    /// merge. Public: it is on the "You:" line.
+    fn speed_limit_ahead(&self, _ego: &Body) -> Option<f64> {
+        None
+    }
 }
 
 /// How a world's road users have moved in one episode: the figures that

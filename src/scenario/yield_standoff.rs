@@ -61,12 +61,16 @@ use crate::rng::EpisodeRng;
 use crate::sim::{Body, CAR_LENGTH, CAR_WIDTH, DT, EGO_MAX_ACCEL, stopping_decel, track_speed, travel_time};
 use serde::{Deserialize, Serialize};
 
+/// The hidden dispositions of this scenario (its definition lists them).
+pub const COMMITTED: Disposition = Disposition::new("committed", false);
+pub const YIELDER: Disposition = Disposition::new("yielder", true);
+
 /// What the rest of the program knows of this scenario.
 pub(crate) const DEF: ScenarioDef = ScenarioDef {
     name: "yield_standoff",
     scene_name: "intersection",
     rng_id: 1,
-    dispositions: [Disposition::Committed, Disposition::Yielder],
+    dispositions: [COMMITTED, YIELDER],
     plan_axes: PlanAxes {
         ego_along_y: true,
         others_along_y: false,
@@ -499,9 +503,9 @@ impl World for YieldWorld {
 
     fn advance(&mut self, ego: &Body, t: f64, dt: f64) {
         let accel = match (self.tier, self.disposition) {
-            (Tier::T1 | Tier::T2, Disposition::Committed) => 0.0,
+            (Tier::T1 | Tier::T2, COMMITTED) => 0.0,
             (Tier::T1 | Tier::T2, _) => self.yielder_accel(ego, dt),
-            (Tier::T3, Disposition::Committed) => {
+            (Tier::T3, COMMITTED) => {
                 let a = self.bluffer_accel(ego, t, dt);
                 // The bluff shows once the car stops slowing above the floor
                 // a yielder brakes through, or re-accelerates.

@@ -110,7 +110,11 @@ pub fn check_gap_acceptance(unstoppable: &[(Cell, usize)], blind: &[BlindCell]) 
         .map(|(cell, n)| (*n, format!("{} on {}", cell.policy, label(cell.scenario, cell.tier))))
         .collect();
     // Per scenario, so that a reader sees which worlds meet the line.
-    let mut by_scenario: Vec<(ScenarioKind, usize)> = ScenarioKind::ALL.iter().map(|&k| (k, 0)).collect();
+    let mut by_scenario: Vec<(ScenarioKind, usize)> = ScenarioKind::ALL
+        .iter()
+        .filter(|&&k| unstoppable.iter().any(|(c, _)| c.scenario == k) || blind.iter().any(|b| b.scenario == k))
+        .map(|&k| (k, 0))
+        .collect();
     let mut add = |kind: ScenarioKind, n: usize| {
         if let Some(entry) = by_scenario.iter_mut().find(|(k, _)| *k == kind) {
             entry.1 += n;

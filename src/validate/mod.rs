@@ -150,6 +150,8 @@ pub const OPEN_CHECKS: [&str; 0] = [];
 /// measured on first use.
 pub(crate) struct Run<'a> {
     set: &'a ScenarioSet,
+    /// The scenarios checked (`--scenario`): every line reads only these.
+    scenarios: Vec<ScenarioKind>,
     seeds: std::ops::Range<u64>,
     search_budget: usize,
     cells: Vec<CellSummary>,
@@ -164,9 +166,15 @@ pub(crate) struct Run<'a> {
 impl<'a> Run<'a> {
     /// Play the baseline grid (every built-in policy on every cell, `n`
     /// seeds from `seed_base`) and keep what the lines read of it.
-    fn new(set: &'a ScenarioSet, n: usize, seed_base: u64, search_budget: usize) -> Run<'a> {
+    fn new(
+        set: &'a ScenarioSet,
+        scenarios: &[ScenarioKind],
+        n: usize,
+        seed_base: u64,
+        search_budget: usize,
+    ) -> Run<'a> {
         let spec = GridSpec {
-            scenarios: ScenarioKind::ALL.to_vec(),
+            scenarios: scenarios.to_vec(),
             tiers: Tier::ALL.to_vec(),
             policies: PolicyKind::ALL.to_vec(),
             episodes: n,
@@ -186,6 +194,7 @@ impl<'a> Run<'a> {
         unstoppable.sort_by_key(|(c, _)| (c.scenario, c.tier, c.policy));
         Run {
             set,
+            scenarios: scenarios.to_vec(),
             seeds: seed_base..seed_base + n as u64,
             search_budget,
             cells,
@@ -199,16 +208,15 @@ impl<'a> Run<'a> {
     /// The blind-policy search on every cell ("blind play loses" and "road
     /// users accept gaps" both read it).
     fn blind(&self) -> &[BlindCell] {
-        self.blind.get_or_init(|| {
-            search_blind(self.set, &ScenarioKind::ALL, &Tier::ALL, self.seeds.clone(), self.search_budget)
-        })
+        self.blind
+            .get_or_init(|| search_blind(self.set, &self.scenarios, &Tier::ALL, self.seeds.clone(), self.search_budget))
     }
 
     /// The hidden-disposition check on the scene text, and the observations
     /// it rendered (which the round-trip line parses back).
     fn hidden(&self) -> &(Check, Vec<crate::observation::Observation>) {
         self.hidden.get_or_init(|| {
-            check_hidden_disposition(self.set, &ScenarioKind::ALL, &Tier::ALL, self.seeds.clone(), &|e: &Episode| {
+            check_hidden_disposition(self.set, &self.scenarios, &Tier::ALL, self.seeds.clone(), &|e: &Episode| {
                 render_scene(e.observation())
             })
         })
@@ -221,13 +229,13 @@ type Line = fn(&Run) -> Check;
 /// Every line, in the order `validate` prints them: a new line is a file
 /// of its own (its measurement, its check and its test hooks) and one
 /// entry here.
-const LINES: [Line; 18] = [
+const LINES: &[Line] = &[
     |run| check_solvable(&run.cells),
     |run| check_anti_gaming(&run.cells),
     |run| check_blind_play_loses(&run.cells, run.blind()),
     |run| {
         let learned =
-            learned_adversaries(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone(), learned::DEFAULT_TRAINING);
+            learned_adversaries(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone(), learned::DEFAULT_TRAINING);
         check_learned_adversary(&run.cells, &learned)
     },
     |run| check_tiers_bite(&run.cells),
@@ -236,24 +244,31 @@ const LINES: [Line; 18] = [
     |run| check_reward_ordering(&run.cells),
     |run| check_correctness(&run.cells),
     |run| check_follows_evidence(&run.expert_timings),
-    |run| check_late_reader(&late_readers(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone())),
-    |run| check_give_way_time(&give_way_time(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone())),
+    |run| check_late_reader(&late_readers(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone())),
+    |run| check_give_way_time(&give_way_time(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone())),
     |run| check_caution(&run.cells),
-    |run| check_hedging(&hedging_readers(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone())),
+    |run| check_hedging(&hedging_readers(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone())),
     |run| {
-        let defensive = defensive_readers(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone());
-        check_defensive(&defensive, &reasons_to_wait(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone()))
+        let defensive = defensive_readers(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone());
+        check_defensive(&defensive, &reasons_to_wait(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone()))
     },
     |run| check_gap_acceptance(&run.unstoppable, run.blind()),
-    |run| check_motion(&road_user_motion(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone())),
-    |run| check_forecast(&forecast_references(run.set, &ScenarioKind::ALL, &Tier::ALL, run.seeds.clone())),
+    |run| check_motion(&road_user_motion(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone())),
+    |run| check_forecast(&forecast_references(run.set, &run.scenarios, &Tier::ALL, run.seeds.clone())),
 ];
 
-/// Run every invariant at `n` seeds per cell; the blind-policy search spends
-/// `search_budget` episodes per cell. `strict`: every check gates, the open
-/// ones included.
-pub fn run(set: &ScenarioSet, n: usize, seed_base: u64, search_budget: usize, strict: bool) -> Vec<Check> {
-    let run = Run::new(set, n, seed_base, search_budget);
+/// Run every invariant on `scenarios` at `n` seeds per cell; the
+/// blind-policy search spends `search_budget` episodes per cell. `strict`:
+/// every check gates, the open ones included.
+pub fn run(
+    set: &ScenarioSet,
+    scenarios: &[ScenarioKind],
+    n: usize,
+    seed_base: u64,
+    search_budget: usize,
+    strict: bool,
+) -> Vec<Check> {
+    let run = Run::new(set, scenarios, n, seed_base, search_budget);
     let mut checks: Vec<Check> = LINES.iter().map(|line| line(&run)).collect();
     for c in &mut checks {
         c.gating = strict || !OPEN_CHECKS.contains(&c.name);

@@ -50,7 +50,7 @@ fn eval_against_the_served_expert_reproduces_the_ideal_observer_exactly() {
     let out = scratch("belief-expert");
     ok(eval(&server.base_url(), &out, "run", &["--probe", "belief", "--scenario", "all", "--tier", "all", "-n", "6"]));
     let lines = lines(&out.join("run"));
-    assert_eq!(lines.len(), 54);
+    assert_eq!(lines.len(), 6 * crate::support::cells());
     let mut noisy_turns_between = 0;
     for line in &lines {
         let (kind, tier, seed) = key(line);
@@ -82,7 +82,7 @@ fn eval_against_the_served_expert_reproduces_the_ideal_observer_exactly() {
     let status = negotiator().args(["report", "--quiet", "--out"]).arg(&rep).arg(out.join("run")).status().unwrap();
     assert!(status.success());
     let csv = std::fs::read_to_string(rep.join("belief.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 9, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + crate::support::cells(), "{csv}");
     assert!(csv.lines().next().unwrap().contains("brier_before"), "{csv}");
     for plot in ["belief_reliability", "belief_over_time"] {
         let svg = std::fs::read_to_string(rep.join(format!("plots/{plot}.svg"))).unwrap();

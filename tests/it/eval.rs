@@ -91,7 +91,7 @@ fn eval_against_served_expert_scores_like_the_in_process_expert() {
     let n = 30;
     let out = served_scores_like_in_process(PolicyKind::Expert, n);
     let lines = lines(&out);
-    assert_one_line_per_key(&lines, 9 * n);
+    assert_one_line_per_key(&lines, crate::support::cells() * n);
     // The transcript is complete.
     let first = &lines[0];
     let turn = &first["turns"][0];
@@ -102,7 +102,7 @@ fn eval_against_served_expert_scores_like_the_in_process_expert() {
         assert!(first.get(k).is_some(), "field {k}");
     }
     let run: Value = serde_json::from_str(&std::fs::read_to_string(out.join("run/run.json")).unwrap()).unwrap();
-    assert_eq!(run["totals"]["episodes"], 9 * n as u64);
+    assert_eq!(run["totals"]["episodes"], (crate::support::cells() * n) as u64);
     assert_eq!(run["last_invocation"]["status"], "finished");
     assert!(run["config_hash"].as_str().unwrap().len() == 16);
     assert!(run["git_revision"].is_string() && run["crate_version"].is_string());
@@ -483,17 +483,19 @@ fn json_events_tell_the_whole_run_in_order() {
     let args = ["--scenario", "all", "--tier", "1", "-n", "2", "-c", "3"];
     let (code, events) = eval_events(&server.base_url(), &out, &args);
     assert_eq!(code, Some(0));
+    // Two seeds of tier 1 of every scenario.
+    let selected = 2 * crate::support::scenarios();
     let mut expected = vec!["planned"];
-    expected.extend(["episode_finished"; 6]);
+    expected.extend(vec!["episode_finished"; selected]);
     expected.push("finished");
     assert_eq!(names(&events), expected);
     let run_dir = out.join("run").display().to_string();
     assert_eq!(
         events[0],
-        serde_json::json!({"event": "planned", "run_dir": run_dir, "selected": 6, "finished": 0, "to_run": 6})
+        serde_json::json!({"event": "planned", "run_dir": run_dir, "selected": selected, "finished": 0, "to_run": selected})
     );
     // One episode_finished per key of the selection, with its outcome.
-    let finished: HashSet<(String, u64)> = events[1..7]
+    let finished: HashSet<(String, u64)> = events[1..=selected]
         .iter()
         .map(|e| {
             assert_eq!((e["tier"].as_u64(), e["rollout"].as_u64()), (Some(1), Some(0)), "{e}");
@@ -501,14 +503,14 @@ fn json_events_tell_the_whole_run_in_order() {
             (e["scenario"].as_str().unwrap().to_string(), e["seed"].as_u64().unwrap())
         })
         .collect();
-    assert_eq!(finished.len(), 6);
-    let end = &events[7];
+    assert_eq!(finished.len(), selected);
+    let end = &events[selected + 1];
     assert_eq!(
         (end["status"].as_str(), end["missing"].as_u64(), end["episodes"].as_u64()),
-        (Some("finished"), Some(0), Some(6))
+        (Some("finished"), Some(0), Some(selected as u64))
     );
     assert!(end["stop"].is_null(), "{end}");
-    let tokens: u64 = events[1..7].iter().map(|e| e["tokens"].as_u64().unwrap()).sum();
+    let tokens: u64 = events[1..=selected].iter().map(|e| e["tokens"].as_u64().unwrap()).sum();
     assert_eq!(end["tokens"].as_u64(), Some(tokens));
 
     // Again: the run is resumed and there is nothing to do.

@@ -34,7 +34,7 @@ fn eval_scores_the_served_rules_forecaster_as_the_reference_and_keeps_the_action
         v
     };
     let (probe, plain) = (sorted(lines(&out.join("probe"))), sorted(lines(&out.join("plain"))));
-    assert_eq!(probe.len(), 36);
+    assert_eq!(probe.len(), 4 * crate::support::cells());
     for (a, b) in probe.iter().zip(&plain) {
         // The probe changes neither the episode nor the action's scoring.
         assert_eq!((&a["outcome"], &a["reward"], &a["seed"]), (&b["outcome"], &b["reward"], &b["seed"]));

@@ -193,3 +193,14 @@ pub fn tool_available(available: bool, what: &str) -> bool {
     eprintln!("skipped: {what} not installed");
     false
 }
+
+/// How many scenarios the benchmark holds: tests count them, never write
+/// the number, so that a scenario added through the registry changes none.
+pub fn scenarios() -> usize {
+    negotiator::scenario::ScenarioKind::ALL.len()
+}
+
+/// How many (scenario, tier) cells `--scenario all --tier all` selects.
+pub fn cells() -> usize {
+    scenarios() * negotiator::scenario::Tier::ALL.len()
+}

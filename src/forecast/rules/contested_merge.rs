@@ -6,7 +6,6 @@
 
 use super::{Rules, travel};
 use crate::observation::{HISTORY_SPACING_S, Observation, Sample, Track};
-use crate::scenario::ScenarioKind;
 use crate::sim::{CAR_LENGTH, track_speed};
 
 /// A lane car letting the go ego slows at most this hard (m/s^2) and
@@ -37,7 +36,7 @@ const SMOOTH_OVER: usize = 3;
 /// The step of the forecast's own little simulation (s).
 const STEP_S: f64 = 0.1;
 
-pub(super) const RULES: Rules = Rules { scenario: ScenarioKind::ContestedMerge, at };
+pub(super) const RULES: Rules = Rules { at };
 
 fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     let tracks = obs.scene.tracks();

@@ -6,7 +6,6 @@
 
 use super::Rules;
 use crate::observation::Observation;
-use crate::scenario::ScenarioKind;
 use crate::scenario::pedestrian_feint::{FAR_KERB, FAR_STOP};
 
 /// Where a pedestrian waiting for cars stops (lateral from the near kerb, m).
@@ -23,7 +22,7 @@ const WALK_MPS: f64 = 1.3;
 const DART_MPS: f64 = 2.5;
 const DART_HORIZON_S: f64 = 0.65;
 
-pub(super) const RULES: Rules = Rules { scenario: ScenarioKind::PedestrianFeint, at };
+pub(super) const RULES: Rules = Rules { at };
 
 fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     let track = obs.scene.tracks()[0];
@@ -58,7 +57,7 @@ mod tests {
     use crate::action::{Action, Maneuver};
     use crate::episode::Episode;
     use crate::forecast::{Forecaster, rules::RulesForecaster};
-    use crate::scenario::{Disposition, ScenarioKind, ScenarioSet, Tier};
+    use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 
     #[test]
     fn one_who_has_crossed_stays_on_the_far_sidewalk() {
@@ -67,7 +66,7 @@ mod tests {
         // neither walks on nor darts back across in front of it.
         let set = ScenarioSet::default();
         let config = set.get(ScenarioKind::PedestrianFeint);
-        let mut episode = Episode::with_disposition(config, Tier::T3, 3, Disposition::Crosser);
+        let mut episode = Episode::with_disposition(config, Tier::T3, 3, crate::scenario::pedestrian_feint::CROSSER);
         let (mut seen, mut action) = (0, Action::new(Maneuver::NudgeForward, 0.0));
         while episode.step(action).is_none() {
             let obs = episode.observation();

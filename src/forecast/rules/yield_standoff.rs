@@ -4,7 +4,6 @@
 
 use super::{Rules, travel};
 use crate::observation::Observation;
-use crate::scenario::ScenarioKind;
 
 /// A car that lets the ego go stops this far before the zone (m) ...
 const STOP_LINE_M: f64 = 1.5;
@@ -22,7 +21,7 @@ const FLOOR_MPS: f64 = 2.0;
 const GO_SPEED_MPS: f64 = 3.0;
 const GO_ACCEL_MPS2: f64 = 1.2;
 
-pub(super) const RULES: Rules = Rules { scenario: ScenarioKind::YieldStandoff, at };
+pub(super) const RULES: Rules = Rules { at };
 
 fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     let track = obs.scene.tracks()[0];

@@ -6,7 +6,6 @@ use super::{GENTLE_YIELD, Move, bolder, gentler};
 use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
-use crate::scenario::ScenarioKind;
 use crate::sim::CAR_LENGTH;
 
 /// A car behind the ego is taken to be this much closer than it reads (m).
@@ -109,7 +108,6 @@ fn follow_in_lane(v: f64, v_max: f64, cars: [&Track; 2]) -> Action {
 /// This scenario's rules, read from its scene (whose layout its scenario
 /// fixes; any other is given way to).
 pub(super) const RULES: super::Rules = super::Rules {
-    scenario: ScenarioKind::ContestedMerge,
     expert: |obs| match obs.scene.tracks() {
         [lane_car, follower] => {
             let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);

@@ -10,10 +10,19 @@
 //! each scenario are in this module's files, one per scenario: they read
 //! only the public `Scene`, never a world.
 
-mod contested_merge;
 mod hedging;
-mod pedestrian_feint;
-mod yield_standoff;
+
+/// The expert's part of the scenario registry: a file of rules per
+/// scenario, in the registry's order.
+macro_rules! expert_rules {
+    ($($name:ident),+) => {
+        $(mod $name;)+
+
+        /// Every scenario's rules, in the order of `ScenarioKind::ALL`.
+        const RULES: [&Rules; ScenarioKind::ALL.len()] = [$(&$name::RULES),+];
+    };
+}
+crate::scenario::registry!(expert_rules);
 
 use super::Policy;
 use crate::action::{Action, Maneuver};
@@ -33,7 +42,6 @@ pub fn watching(obs: &Observation, confirm: bool) -> bool {
 /// speed (and, for the expert, its last action). Each scenario's file
 /// defines its own.
 pub(crate) struct Rules {
-    scenario: ScenarioKind,
     expert: fn(&Observation) -> Move,
     cue_follower: fn(&Scene, f64, f64) -> Action,
     /// The habit a driving instructor teaches, over every road user that is
@@ -67,14 +75,10 @@ impl Move {
     }
 }
 
-/// Every scenario's rules.
-const RULES: [&Rules; 3] = [&yield_standoff::RULES, &pedestrian_feint::RULES, &contested_merge::RULES];
-
-/// The rules of the scene's scenario. A scenario without rules here is
-/// played by giving way short of the conflict (a test holds every scenario
-/// of the benchmark to having rules).
+/// The rules of the scene's scenario. A scenario outside the benchmark (a
+/// test's) has none: it is played by giving way short of the conflict.
 fn rules(scene: &Scene) -> Option<&'static Rules> {
-    RULES.into_iter().find(|r| r.scenario == scene.kind())
+    scene.kind().index().map(|i| RULES[i])
 }
 
 /// Give way short of the conflict: the move of a policy with no rule for
@@ -237,13 +241,6 @@ mod tests {
     use super::*;
     use crate::episode::run_episode;
     use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
-
-    #[test]
-    fn every_scenario_of_the_benchmark_has_its_rules() {
-        for kind in ScenarioKind::ALL {
-            assert_eq!(RULES.iter().filter(|r| r.scenario == kind).count(), 1, "{kind}");
-        }
-    }
 
     /// The cautious readers change only the moves short of a go: where the
     /// rules go, they go as the expert does; elsewhere they brake at least

@@ -6,7 +6,6 @@ use super::Move;
 use crate::action::{Action, Maneuver};
 use crate::observation::{Observation, Track};
 use crate::policy::{go, hedge};
-use crate::scenario::ScenarioKind;
 use crate::scenario::pedestrian_feint::{FAR_KERB, PATH_NEAR, X_HALF};
 use crate::sim::{EGO_MAX_ACCEL, travel_time};
 
@@ -75,7 +74,6 @@ fn give_way(v: f64, v_max: f64, d: f64, lat: f64, vel: f64) -> Action {
 /// This scenario's rules, read from its scene (whose layout its scenario
 /// fixes; any other is given way to).
 pub(super) const RULES: super::Rules = super::Rules {
-    scenario: ScenarioKind::PedestrianFeint,
     expert: |obs| match obs.scene.tracks() {
         [pedestrian, companions @ ..] => {
             let (v, v_max, d) = (obs.ego.speed_mps, obs.ego.speed_limit_mps, obs.scene.ego_to_conflict_m());

@@ -6,7 +6,6 @@ use super::Move;
 use crate::action::{Action, Maneuver};
 use crate::observation::Track;
 use crate::policy::{go, hedge};
-use crate::scenario::ScenarioKind;
 use crate::scenario::yield_standoff::HALF_ZONE;
 use crate::sim::{EGO_MAX_ACCEL, travel_time};
 
@@ -77,7 +76,6 @@ fn arrives_after(v: f64, v_max: f64, d: f64, car: &Track) -> bool {
 /// This scenario's rules, read from its scene (whose layout its scenario
 /// fixes; any other is given way to).
 pub(super) const RULES: super::Rules = super::Rules {
-    scenario: ScenarioKind::YieldStandoff,
     expert: |obs| match obs.scene.tracks() {
         [other, follower] => {
             let (v, v_max) = (obs.ego.speed_mps, obs.ego.speed_limit_mps);

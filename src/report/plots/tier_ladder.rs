@@ -101,15 +101,16 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
             "Success per tier (1 plain, 2 {}, 3 {}). A model that acts on the instantaneous cue falls at tier 3 \
              where one that waits for a committed signal holds. Whiskers: 95% percentile bootstrap CIs over seeds; \
              dashed: the reference policies on each tier.",
-            tier_mechanics(0),
-            tier_mechanics(1)
+            tier_mechanics(&scenarios, 0),
+            tier_mechanics(&scenarios, 1)
         ),
         svg: svg.finish(title),
     }
 }
 
-/// What tier 2 (`tier` 0) or tier 3 (1) changes in each scenario, from the
-/// scenarios' definitions: "delayed reveal / delayed step-out / ...".
-fn tier_mechanics(tier: usize) -> String {
-    ScenarioKind::ALL.iter().map(|k| k.def().tier_mechanics[tier]).collect::<Vec<_>>().join(" / ")
+/// What tier 2 (`tier` 0) or tier 3 (1) changes in each scenario the
+/// figure draws, from their definitions: "delayed reveal / delayed
+/// step-out / ...".
+fn tier_mechanics(scenarios: &[ScenarioKind], tier: usize) -> String {
+    scenarios.iter().map(|k| k.def().tier_mechanics[tier]).collect::<Vec<_>>().join(" / ")
 }
