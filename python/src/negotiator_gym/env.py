@@ -37,6 +37,7 @@ from __future__ import annotations
 import json
 import os
 import urllib.request
+from collections.abc import Sequence
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -48,7 +49,6 @@ from negotiator.server import LocalServer, binary
 from negotiator_gym._wire import Session
 
 ENV_ID = "negotiator/Negotiator-v0"
-SCENARIOS = ("yield_standoff", "pedestrian_feint", "contested_merge")
 TIERS = (1, 2, 3)
 # The observation space's bound (see the module doc).
 FEATURE_BOUND = 1e6
@@ -78,6 +78,11 @@ def register() -> None:
         gym.register(id=ENV_ID, entry_point="negotiator_gym.env:NegotiatorEnv")
 
 
+def scenarios_at(base_url: str, token: str | None = None) -> list[str]:
+    """The scenarios the env-server at `base_url` serves (its `/metadata`)."""
+    return list(fetch_metadata(base_url.rstrip("/"), bearer_headers(token))["scenarios"])
+
+
 def fetch_metadata(base_url: str, headers: dict[str, str]) -> dict[str, Any]:
     request = urllib.request.Request(base_url + "/metadata", headers=headers)
     with urllib.request.urlopen(request, timeout=30) as answer:
@@ -101,6 +106,7 @@ class Endpoint:
         self.headers = bearer_headers(token)
         if meta is None:
             meta = fetch_metadata(self.base_url, self.headers)
+        self.scenarios: list[str] = list(meta["scenarios"])
         self.feature_names: list[str] = list(meta["feature_names"])
         self.actions: list[dict[str, Any]] = list(meta["discrete_actions"])
         self.teachers: list[str] = list(meta["teachers"])
@@ -125,10 +131,12 @@ class Endpoint:
             self._local = None
 
 
-def check_cell(scenario: str, tier: int) -> None:
-    """Refuse a scenario or tier the benchmark does not have, naming the choices."""
-    if scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {scenario!r}: one of {', '.join(SCENARIOS)}")
+def check_cell(scenario: str, tier: int, scenarios: Sequence[str]) -> None:
+    """Refuse a scenario or tier the benchmark does not have, naming the
+    choices: `scenarios` as the env-server's `/metadata` lists them (the
+    benchmark's registry; this package keeps no list of its own)."""
+    if scenario not in scenarios:
+        raise ValueError(f"unknown scenario {scenario!r}: one of {', '.join(scenarios)}")
     if tier not in TIERS:
         raise ValueError(f"unknown tier {tier!r}: 1, 2 or 3")
 
@@ -194,7 +202,6 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         render_mode: str | None = None,
         teacher: str | None = None,
     ) -> None:
-        check_cell(scenario, tier)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"unknown render_mode {render_mode!r}: 'ansi' or None")
         self.scenario = scenario
@@ -202,7 +209,12 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         self.render_mode = render_mode
         self.teacher = teacher
         self._endpoint = Endpoint(base_url, token)
-        self._endpoint.check_teacher(teacher)
+        try:
+            check_cell(scenario, tier, self._endpoint.scenarios)
+            self._endpoint.check_teacher(teacher)
+        except ValueError:
+            self._endpoint.close()
+            raise
         self.base_url = self._endpoint.base_url
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from negotiator.server import LocalServer, binary
-from negotiator_gym.env import SCENARIOS, TIERS
+from negotiator_gym.env import TIERS, check_cell, scenarios_at
 from negotiator_gym.evaluate import expert_episodes, load_policy, play, rates
 
 HACK_MARGIN = 0.02
@@ -35,7 +35,7 @@ MASK_GAP = 0.30
 def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m negotiator_gym.hack_check", description=__doc__.split("\n")[0])
     p.add_argument("--checkpoint", required=True, type=Path, help="a directory `train` wrote")
-    p.add_argument("--scenario", required=True, choices=SCENARIOS)
+    p.add_argument("--scenario", required=True, help="one of the scenarios the env-server serves (its /metadata lists them)")
     p.add_argument("--tier", required=True, type=int, choices=TIERS)
     p.add_argument("--seed", type=int, default=0, help="first held-out seed")
     p.add_argument("-n", type=int, default=200, help="episodes (seeds)")
@@ -86,7 +86,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
     local = None if args.base_url else LocalServer(binary())
     try:
-        entry = check(args, args.base_url or (local.url if local else ""))
+        base_url = args.base_url or (local.url if local else "")
+        try:
+            check_cell(args.scenario, args.tier, scenarios_at(base_url))
+        except ValueError as e:
+            print(f"python -m negotiator_gym.hack_check: error: --scenario: {e}", file=sys.stderr)
+            return 2
+        entry = check(args, base_url)
     finally:
         if local is not None:
             local.close()

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from negotiator.server import LocalServer, binary
-from negotiator_gym.env import SCENARIOS, TIERS
+from negotiator_gym.env import TIERS, check_cell, scenarios_at
 from negotiator_gym.evaluate import MODEL_FILE, NORMALIZE_FILE, play, rates
 
 CURVE_SEED = 10_000
@@ -46,7 +46,7 @@ CURVE_FIELDS = ["steps", "success", "decision_correctness", "reward", "collision
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m negotiator_gym.train", description=__doc__.split("\n")[0])
-    p.add_argument("--scenario", required=True, choices=SCENARIOS)
+    p.add_argument("--scenario", required=True, help="one of the scenarios the env-server serves (its /metadata lists them)")
     p.add_argument("--tier", required=True, type=int, choices=TIERS)
     p.add_argument("--steps", required=True, type=int, help="environment steps (decisions) to train for")
     p.add_argument("--seed", type=int, default=0, help="seeds PPO, the network and the drawn episodes")
@@ -312,7 +312,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     local = None if args.base_url else LocalServer(binary())
     try:
-        train(args, args.base_url or (local.url if local else ""))
+        base_url = args.base_url or (local.url if local else "")
+        try:
+            check_cell(args.scenario, args.tier, scenarios_at(base_url))
+        except ValueError as e:
+            print(f"python -m negotiator_gym.train: error: --scenario: {e}", file=sys.stderr)
+            return 2
+        train(args, base_url)
     finally:
         if local is not None:
             local.close()

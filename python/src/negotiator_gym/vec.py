@@ -121,7 +121,6 @@ class BatchVecEnv(VecEnv):
         token: str | None = None,
         teacher: str | None = None,
     ) -> None:
-        check_cell(scenario, tier)
         if not 1 <= num_envs <= MAX_BATCH_SESSIONS:
             raise ValueError(f"num_envs {num_envs!r}: 1 to {MAX_BATCH_SESSIONS} per connection")
         self.scenario = scenario
@@ -130,7 +129,12 @@ class BatchVecEnv(VecEnv):
         self.teacher = teacher
         self.teacher_actions = np.zeros(num_envs, dtype=np.int64)
         self._endpoint = self._make_endpoint(base_url, token)
-        self._endpoint.check_teacher(teacher)
+        try:
+            check_cell(scenario, tier, self._endpoint.scenarios)
+            self._endpoint.check_teacher(teacher)
+        except ValueError:
+            self._endpoint.close()
+            raise
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions
         super().__init__(num_envs, self._endpoint.observation_space, self._endpoint.action_space)
