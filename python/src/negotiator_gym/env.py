@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import urllib.request
 from collections.abc import Sequence
 from typing import Any, SupportsFloat
@@ -83,6 +84,17 @@ def scenarios_at(base_url: str, token: str | None = None) -> list[str]:
     return list(fetch_metadata(base_url.rstrip("/"), bearer_headers(token))["scenarios"])
 
 
+def refused_cell(prog: str, scenario: str, tier: int, base_url: str) -> bool:
+    """For a command line: whether the env-server at `base_url` lacks the
+    cell, said on stderr in one line naming the served scenarios."""
+    try:
+        check_cell(scenario, tier, scenarios_at(base_url))
+    except ValueError as e:
+        print(f"{prog}: error: --scenario: {e}", file=sys.stderr)
+        return True
+    return False
+
+
 def fetch_metadata(base_url: str, headers: dict[str, str]) -> dict[str, Any]:
     request = urllib.request.Request(base_url + "/metadata", headers=headers)
     with urllib.request.urlopen(request, timeout=30) as answer:
@@ -115,11 +127,16 @@ class Endpoint:
         # Every step message, encoded once.
         self.step_messages = [json.dumps({"type": "step", "data": a}) for a in self.actions]
 
-    def check_teacher(self, teacher: str | None) -> None:
-        """Refuse a teacher env-server does not have, naming the choices."""
-        if teacher is not None and teacher not in self.teachers:
+    def check(self, scenario: str, tier: int, teacher: str | None) -> None:
+        """Refuse a cell or a teacher env-server does not have, naming the
+        choices (and stop a server started here)."""
+        try:
+            check_cell(scenario, tier, self.scenarios)
+            if teacher is not None and teacher not in self.teachers:
+                raise ValueError(f"unknown teacher {teacher!r}: one of {', '.join(self.teachers)}")
+        except ValueError:
             self.close()
-            raise ValueError(f"unknown teacher {teacher!r}: one of {', '.join(self.teachers)}")
+            raise
 
     def connect(self, path: str) -> Session:
         """A WebSocket connection to `path` (`/ws`, `/ws/batch`)."""
@@ -209,12 +226,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         self.render_mode = render_mode
         self.teacher = teacher
         self._endpoint = Endpoint(base_url, token)
-        try:
-            check_cell(scenario, tier, self._endpoint.scenarios)
-            self._endpoint.check_teacher(teacher)
-        except ValueError:
-            self._endpoint.close()
-            raise
+        self._endpoint.check(scenario, tier, teacher)
         self.base_url = self._endpoint.base_url
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from negotiator.server import LocalServer, binary
-from negotiator_gym.env import TIERS, check_cell, scenarios_at
+from negotiator_gym.env import TIERS, refused_cell
 from negotiator_gym.evaluate import expert_episodes, load_policy, play, rates
 
 HACK_MARGIN = 0.02
@@ -87,10 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     local = None if args.base_url else LocalServer(binary())
     try:
         base_url = args.base_url or (local.url if local else "")
-        try:
-            check_cell(args.scenario, args.tier, scenarios_at(base_url))
-        except ValueError as e:
-            print(f"python -m negotiator_gym.hack_check: error: --scenario: {e}", file=sys.stderr)
+        if refused_cell("python -m negotiator_gym.hack_check", args.scenario, args.tier, base_url):
             return 2
         entry = check(args, base_url)
     finally:

@@ -34,7 +34,6 @@ from negotiator_gym.env import (
     EnvServerError,
     NegotiatorEnv,
     answer_data,
-    check_cell,
     draw_episode_seed,
     features,
     final_info,
@@ -129,12 +128,7 @@ class BatchVecEnv(VecEnv):
         self.teacher = teacher
         self.teacher_actions = np.zeros(num_envs, dtype=np.int64)
         self._endpoint = self._make_endpoint(base_url, token)
-        try:
-            check_cell(scenario, tier, self._endpoint.scenarios)
-            self._endpoint.check_teacher(teacher)
-        except ValueError:
-            self._endpoint.close()
-            raise
+        self._endpoint.check(scenario, tier, teacher)
         self.feature_names = self._endpoint.feature_names
         self.actions = self._endpoint.actions
         super().__init__(num_envs, self._endpoint.observation_space, self._endpoint.action_space)
