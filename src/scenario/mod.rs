@@ -371,6 +371,13 @@ mod tests {
             assert!(def.track_labels.len() <= scene::MAX_TRACKS, "{kind}");
             assert_ne!(def.dispositions[0], def.dispositions[1], "{kind}");
             assert!(def.dispositions[1].ego_should_go() && !def.dispositions[0].ego_should_go(), "{kind}");
+            // A name means one disposition wherever it is declared: records spell it by name.
+            for d in def.dispositions {
+                let named: Vec<Disposition> =
+                    defs.iter().flat_map(|(_, o)| o.dispositions).filter(|o| o.name() == d.name()).collect();
+                assert!(named.iter().all(|o| *o == d), "{kind}: '{d}' declared twice, differently");
+                assert_eq!(serde_json::from_value::<Disposition>(serde_json::json!(d.name())).unwrap(), d);
+            }
             assert!(def.tier_mechanics.iter().all(|m| !m.is_empty()) && !def.situation.is_empty(), "{kind}");
             for (other, o) in &defs {
                 if other != kind {
