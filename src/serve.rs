@@ -68,9 +68,9 @@ pub(crate) struct ServeConfig {
     /// `--probe belief`: add the policy's belief to every answer; the
     /// expert's needs its episode found in this index.
     pub(crate) belief: Option<Arc<EpisodeIndex>>,
-    /// `--probe forecast`: add the rules forecaster's forecast of the last
+    /// `--probe forecast`: add this forecaster's forecast of the last
     /// scene to every answer (it reads only the scene text).
-    pub(crate) forecast: bool,
+    pub(crate) forecast: Option<crate::forecast::ForecasterKind>,
 }
 
 /// Counts of what was served (for the shutdown line and tests).
@@ -316,11 +316,11 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     if cfg.belief.is_some() {
         content["belief"] = json!(belief);
     }
-    if cfg.forecast
+    if let Some(forecaster) = cfg.forecast
         && let Ok(obs) = crate::observation::parse_scene(scene)
     {
-        use crate::forecast::{DOES_NOT_KEY, Forecaster, LETS_YOU_GO_KEY};
-        let f = crate::forecast::rules::RulesForecaster.forecast(&obs);
+        use crate::forecast::{DOES_NOT_KEY, LETS_YOU_GO_KEY};
+        let f = forecaster.build().forecast(&obs);
         content["forecast"] = json!({ LETS_YOU_GO_KEY: f.lets_you_go, DOES_NOT_KEY: f.does_not });
     }
     (content.to_string(), answer.scene)
@@ -492,7 +492,7 @@ mod tests {
             drop_rate: 0.0,
             garbage_rate: 0.0,
             belief: None,
-            forecast: false,
+            forecast: None,
         });
         assert!(s.rate_limit().is_ok());
         assert!(s.rate_limit().is_ok());

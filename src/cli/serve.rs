@@ -56,6 +56,20 @@ pub struct ServeArgs {
     /// expert and is counted as unidentified.
     #[arg(long, default_value = "0..1000", value_parser = parse_seed_range)]
     pub probe_seeds: std::ops::Range<u64>,
+    /// Who answers `--probe forecast`: the rules forecaster, or constant
+    /// velocity from the scene as printed (which scores a skill of exactly
+    /// 0, the reference's own figure).
+    #[arg(long, default_value = "rules", value_parser = forecaster_parser())]
+    pub forecaster: crate::forecast::ForecasterKind,
+}
+
+/// `--forecaster`: the reference forecasters by name.
+fn forecaster_parser() -> impl clap::builder::TypedValueParser<Value = crate::forecast::ForecasterKind> {
+    use crate::forecast::ForecasterKind;
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(ForecasterKind::ALL.map(ForecasterKind::name)).map(|name| {
+        *ForecasterKind::ALL.iter().find(|k| k.name() == name).expect("a listed forecaster name is a forecaster")
+    })
 }
 
 /// `--policy`: clap lists the built-in policies in `--help` and refuses
@@ -104,7 +118,7 @@ impl ServeArgs {
                 .probe
                 .belief
                 .then(|| std::sync::Arc::new(crate::serve::EpisodeIndex::build(self.probe_seeds.clone()))),
-            forecast: self.probe.forecast,
+            forecast: self.probe.forecast.then_some(self.forecaster),
         };
         crate::redact::eline!(
             "serving policy '{policy}' (fail {} | drop {} | garbage {} | rate limit {} | latency {} ms | seed {})",

@@ -270,15 +270,23 @@ impl Forecaster for ConstantVelocity {
 }
 
 /// The constant-velocity future of the probe's road users: the position
-/// moved by the velocity times the horizon, along the scene's axis.
+/// moved by the velocity times the horizon, along the scene's axis, from
+/// the figures as the scene text prints them (one decimal). A model that
+/// forecasts constant velocity from what it reads matches this reference
+/// exactly (skill 0), rather than paying for digits it was never shown.
 pub fn constant_velocity(obs: &Observation) -> Vec<AtHorizons> {
     let kind = obs.scene.kind();
     let sign = kind.def().position_per_velocity;
+    // As `Observation::rounded` rounds a track, without cloning the scene.
+    let printed = |x: f64| crate::observation::round_to(x, 1);
     obs.scene
         .tracks()
         .iter()
         .take(forecast_tracks(kind))
-        .map(|t| HORIZONS_S.map(|h| t.now.position_m + sign * t.now.velocity_mps * h))
+        .map(|t| {
+            let (position, velocity) = (printed(t.now.position_m), printed(t.now.velocity_mps));
+            HORIZONS_S.map(|h| position + sign * velocity * h)
+        })
         .collect()
 }
 
@@ -308,9 +316,13 @@ mod tests {
             let f = ConstantVelocity.forecast(obs);
             assert!(f.fits(kind), "{kind}");
             assert_eq!(f.lets_you_go, f.does_not);
-            let t = obs.scene.tracks()[0].now;
+            // From the scene as printed: the parsed-back text gives the
+            // same forecast to the bit.
+            let read = crate::observation::parse_scene(&crate::observation::render_scene(obs)).unwrap();
+            let t = read.scene.tracks()[0].now;
             let moved = f.lets_you_go[0][1] - t.position_m;
             assert!((moved.abs() - 2.0 * t.velocity_mps.abs()).abs() < 1e-9, "{kind}");
+            assert_eq!(constant_velocity(&read), f.lets_you_go, "{kind}");
         }
     }
 }

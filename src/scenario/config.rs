@@ -37,6 +37,11 @@ impl From<Range> for [f64; 2] {
 }
 
 impl Range {
+    /// The middle of the range: a typical draw.
+    pub fn mid(&self) -> f64 {
+        0.5 * (self.lo + self.hi)
+    }
+
     pub fn sample(&self, rng: &mut crate::rng::EpisodeRng) -> f64 {
         self.lo + (self.hi - self.lo) * rng.unit()
     }

@@ -134,3 +134,13 @@ where
     params.validate(check)?;
     Ok(Arc::new(params))
 }
+
+/// A scenario's built-in parameters, typed: where its public rules (the
+/// expert's, the rules forecaster's) read the typical figures of its road
+/// users, so that the scenario file states each figure once.
+pub(crate) fn builtin_params<P: serde::de::DeserializeOwned>(def: &ScenarioDef) -> P {
+    let mut table: toml::Table = def.builtin_file.1.parse().expect("built-in scenario file is valid TOML");
+    table.remove("scenario");
+    // The built-in files are checked by a unit test.
+    toml::Value::Table(table).try_into().expect("built-in scenario file is valid")
+}

@@ -296,6 +296,41 @@ impl Trajectory {
     }
 }
 
+/// The typical figures of the intersection's other car, as the public
+/// rules read them (the scenario file in the binary, middles of ranges).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Typical {
+    /// A yielder stops this far before the zone (m) ...
+    pub stop_line_m: f64,
+    /// ... braking once a stop at its line takes this rate (m/s^2).
+    pub stop_decel_mps2: f64,
+    /// A tier-3 bluffer eases off no lower than this (m/s).
+    pub floor_speed_mps: f64,
+    /// A car pulling away from its line goes up to this (m/s), at this
+    /// rate (m/s^2).
+    pub go_speed_mps: f64,
+    pub go_accel_mps2: f64,
+}
+
+impl Typical {
+    pub fn of(p: &YieldParams) -> Typical {
+        Typical {
+            stop_line_m: p.other.stop_line_m,
+            stop_decel_mps2: p.other.stop_decel_mps2,
+            floor_speed_mps: p.tier3.floor_speed_mps,
+            go_speed_mps: p.other.go_speed_mps,
+            go_accel_mps2: p.other.go_accel_mps2,
+        }
+    }
+}
+
+/// The built-in file's [`Typical`] figures.
+pub fn typical() -> &'static Typical {
+    static TYPICAL: std::sync::LazyLock<Typical> =
+        std::sync::LazyLock::new(|| Typical::of(&super::def::builtin_params::<YieldParams>(&DEF)));
+    &TYPICAL
+}
+
 pub struct YieldWorld {
     tier: Tier,
     disposition: Disposition,

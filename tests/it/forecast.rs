@@ -90,6 +90,35 @@ fn eval_scores_the_served_rules_forecaster_as_the_reference_and_keeps_the_action
     assert!(!plain.join("forecast.csv").exists() && !plain.join("plots/forecast_by_turn.svg").exists());
 }
 
+/// The constant-velocity reference is taken from the scene as printed: a
+/// model that forecasts constant velocity from the text it reads (here
+/// `serve --forecaster constant_velocity`, reading the scene back) makes
+/// exactly the reference's errors, a skill of 0.00 in every cell, noisy
+/// tiers included.
+#[test]
+fn a_constant_velocity_forecast_read_from_the_text_scores_a_skill_of_zero_in_every_cell() {
+    let server = Server::start(&["--policy", "expert", "--probe", "forecast", "--forecaster", "constant_velocity"]);
+    let out = scratch("forecast-cv");
+    let args = ["--probe", "forecast", "--scenario", "all", "--tier", "all", "-n", "4"];
+    crate::support::ok(eval(&server.base_url(), &out, "cv", &args));
+    let summary: Value = serde_json::from_str(&std::fs::read_to_string(out.join("cv/summary.json")).unwrap()).unwrap();
+    let cells = summary["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), crate::support::cells());
+    for cell in cells {
+        let f = &cell["forecast"];
+        assert_eq!(f["probe_error_rate"], 0.0, "{cell}");
+        for k in 0..2 {
+            assert_eq!(f["error_true_m"][k], f["cv_error_true_m"][k], "{cell}");
+            assert_eq!(f["error_other_m"][k], f["cv_error_other_m"][k], "{cell}");
+            // NaN (no constant-velocity error to beat) is written as null.
+            for skill in [&f["skill_true"][k], &f["skill_other"][k]] {
+                assert!(skill.is_null() || skill.as_f64() == Some(0.0), "{cell}");
+            }
+        }
+        assert!(f["skill_true"][1].as_f64() == Some(0.0), "{cell}");
+    }
+}
+
 #[test]
 fn a_missing_or_malformed_forecast_is_a_probe_error_and_both_probes_combine() {
     // A server without the probe: every forecast is missing, every belief

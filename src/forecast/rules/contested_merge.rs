@@ -6,31 +6,25 @@
 
 use super::{Rules, travel};
 use crate::observation::{HISTORY_SPACING_S, Observation, Sample, Track};
+use crate::scenario::contested_merge::typical;
 use crate::sim::{CAR_LENGTH, track_speed};
 
-/// A lane car letting the go ego slows at most this hard (m/s^2) and
-/// picks up speed this gently (m/s^2, lane traffic's IDM rate) ...
-const OPEN_DECEL_MPS2: f64 = 3.0;
-const PICK_UP_MPS2: f64 = 1.5;
-/// ... holding back this much slower than the ego (m/s) until it is this
-/// far behind the ego's rear (m), closing on that gap at this rate (1/s);
-/// overlapping the ego it drops back this much slower (m/s).
+/// A lane car letting the ego go slows at most as hard as the scenario
+/// file's `lane.open_decel_mps2` and picks up speed at lane traffic's IDM
+/// rate, holding back this much slower than the ego (m/s) until it is
+/// `lane.open_gap_m` behind the ego's rear, closing on that gap at this
+/// rate (1/s); overlapping the ego it drops back this much slower (m/s).
 const HOLD_BACK_MPS: f64 = 0.7;
-const OPEN_GAP_M: f64 = 1.0;
 const GAP_GAIN: f64 = 0.8;
 const DROP_BACK_MPS: f64 = 4.0;
 /// A lane car this much faster than the ego is passing it (m/s).
 const PASSING_MPS: f64 = 0.5;
 /// An ego braking harder than this (m/s^2) hangs back; a car letting it
 /// go then covers it, its centre this far from the ego's (m), braking up
-/// to this hard (m/s^2).
+/// to lane traffic's hardest. One holding the lane draws level with a
+/// faster ego alongside (the file's `lane.deny_*` figures).
 const HANGING_BACK_MPS2: f64 = -1.0;
 const COVER_AT_M: f64 = -(CAR_LENGTH - 1.5);
-const COVER_DECEL_MPS2: f64 = 4.0;
-/// One holding the lane draws level with a faster ego alongside at this
-/// rate (m/s^2), at most this much above its speed (m/s).
-const HOLD_ACCEL_MPS2: f64 = 3.0;
-const HOLD_EXTRA_MPS: f64 = 4.0;
 /// Readings a noisy scene's position and speed are averaged over.
 const SMOOTH_OVER: usize = 3;
 /// The step of the forecast's own little simulation (s).
@@ -39,6 +33,7 @@ const STEP_S: f64 = 0.1;
 pub(super) const RULES: Rules = Rules { at };
 
 fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
+    let typical = typical();
     let tracks = obs.scene.tracks();
     let (lane, follower) = (read(obs, &tracks[0]), read(obs, &tracks[1]));
     let (p, v, ego_v) = (lane.position_m, lane.velocity_mps.max(0.0), obs.ego.speed_mps);
@@ -53,7 +48,7 @@ fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     } else if lets_you_go && !passing {
         gives_way(p, v, ego_v, keeps_pace, h)
     } else if !lets_you_go && p.abs() < CAR_LENGTH && ego_v > v && keeps_pace {
-        travel(v, HOLD_ACCEL_MPS2, h, ego_v.min(v + HOLD_EXTRA_MPS))
+        travel(v, typical.deny_accel_mps2, h, ego_v.min(v + typical.deny_extra_mps))
     } else {
         v * h
     };
@@ -68,16 +63,17 @@ fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
 /// rear, visibly slower than the ego until it has one; beside an ego that
 /// hangs back it covers it.
 fn gives_way(p: f64, v: f64, ego_v: f64, keeps_pace: bool, h: f64) -> f64 {
+    let typical = typical();
     let (mut rel, mut v, mut moved) = (p, v, 0.0);
     for _ in 0..(h / STEP_S).round() as usize {
         let gap = -rel - CAR_LENGTH;
         let (target, brake) = if keeps_pace {
-            let follow = (ego_v + GAP_GAIN * (gap - OPEN_GAP_M)).min(ego_v - HOLD_BACK_MPS);
-            (if gap < 0.0 { follow.min(ego_v - DROP_BACK_MPS).min(v) } else { follow }, OPEN_DECEL_MPS2)
+            let follow = (ego_v + GAP_GAIN * (gap - typical.open_gap_m)).min(ego_v - HOLD_BACK_MPS);
+            (if gap < 0.0 { follow.min(ego_v - DROP_BACK_MPS).min(v) } else { follow }, typical.open_decel_mps2)
         } else {
-            (ego_v + (COVER_AT_M - rel), COVER_DECEL_MPS2)
+            (ego_v + (COVER_AT_M - rel), typical.max_brake_mps2)
         };
-        let a = track_speed(v, target.max(0.0), PICK_UP_MPS2, brake, STEP_S);
+        let a = track_speed(v, target.max(0.0), typical.pick_up_mps2, brake, STEP_S);
         let next = (v + a * STEP_S).max(0.0);
         moved += 0.5 * (v + next) * STEP_S;
         rel += (0.5 * (v + next) - ego_v) * STEP_S;

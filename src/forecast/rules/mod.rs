@@ -61,6 +61,72 @@ pub(super) fn travel(v: f64, rate: f64, h: f64, target: f64) -> f64 {
 mod tests {
     use super::*;
 
+    /// Each typical figure the rules (and the expert) read, against the
+    /// same figure read back by its path from the scenario in force as a
+    /// run records it (its JSON, a range's middle): should the rules read a
+    /// figure of their own, or the wrong field, this fails.
+    #[test]
+    fn the_rules_figures_are_the_scenario_files() {
+        use crate::scenario::{ScenarioConfig, contested_merge, pedestrian_feint, yield_standoff};
+        let file = |kind: ScenarioKind, path: &str| -> f64 {
+            let json = serde_json::to_value(ScenarioConfig::builtin(kind)).unwrap();
+            let v = path.split('.').fold(&json, |v, key| &v[key]);
+            match v.as_array() {
+                Some(range) => 0.5 * (range[0].as_f64().unwrap() + range[1].as_f64().unwrap()),
+                None => v.as_f64().unwrap_or_else(|| panic!("{kind}: no figure at {path}")),
+            }
+        };
+        let y = yield_standoff::typical();
+        let kind = ScenarioKind::YieldStandoff;
+        assert_eq!(
+            [y.stop_line_m, y.stop_decel_mps2, y.floor_speed_mps, y.go_speed_mps, y.go_accel_mps2],
+            [
+                "other.stop_line_m",
+                "other.stop_decel_mps2",
+                "tier3.floor_speed_mps",
+                "other.go_speed_mps",
+                "other.go_accel_mps2"
+            ]
+            .map(|p| file(kind, p))
+        );
+        let c = pedestrian_feint::typical();
+        let kind = ScenarioKind::PedestrianFeint;
+        assert_eq!(
+            [c.kerb_stop_m, c.step_out_at_s, c.step_out_speed_mps, c.dart_speed_mps, c.dart_horizon_s],
+            [
+                "pedestrian.kerb_stop_m",
+                "tier2.step_at_s",
+                "tier2.step_out_speed_mps",
+                "tier3.dart_speed_mps",
+                "tier3.dart_horizon_s"
+            ]
+            .map(|p| file(kind, p))
+        );
+        let m = contested_merge::typical();
+        let kind = ScenarioKind::ContestedMerge;
+        assert_eq!(
+            [
+                m.open_decel_mps2,
+                m.open_gap_m,
+                m.pick_up_mps2,
+                m.max_brake_mps2,
+                m.deny_accel_mps2,
+                m.deny_extra_mps,
+                m.speed_noise_mps
+            ],
+            [
+                "lane.open_decel_mps2",
+                "lane.open_gap_m",
+                "idm.accel",
+                "idm.max_brake",
+                "lane.deny_accel_mps2",
+                "lane.deny_extra_mps",
+                "tier2.speed_noise_mps"
+            ]
+            .map(|p| file(kind, p))
+        );
+    }
+
     #[test]
     fn travel_ramps_then_holds() {
         assert_eq!(travel(10.0, 0.0, 2.0, 0.0), 20.0);

@@ -6,27 +6,20 @@
 
 use super::Rules;
 use crate::observation::Observation;
-use crate::scenario::pedestrian_feint::{FAR_KERB, FAR_STOP};
+use crate::scenario::pedestrian_feint::{AT_EDGE_M, FAR_KERB, FAR_STOP, typical};
 
-/// Where a pedestrian waiting for cars stops (lateral from the near kerb, m).
-const KERB_STOP_M: f64 = -0.6;
-/// Nearer the road than this, at rest, it stands at the kerb's edge.
-const EDGE_M: f64 = -0.35;
 /// Below this (m/s) a pedestrian stands.
 const STANDING_MPS: f64 = 0.1;
-/// A crosser at the kerb steps out by this time (s), at this pace (m/s).
-const STEP_OUT_AT_S: f64 = 2.15;
-const WALK_MPS: f64 = 1.3;
-/// One at the edge darts, at this pace (m/s), once the car at its current
-/// speed is due at the line within this (s).
-const DART_MPS: f64 = 2.5;
-const DART_HORIZON_S: f64 = 0.65;
 
 pub(super) const RULES: Rules = Rules { at };
 
 fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
     let track = obs.scene.tracks()[0];
     let (lat, v) = (track.now.position_m, track.now.velocity_mps);
+    // Where one waiting for cars stands, and how a crosser sets out: the
+    // scenario file's typical figures.
+    let typical = typical();
+    let kerb_stop_m = typical.kerb_stop_m;
     if lat > FAR_KERB {
         // It has crossed (the scene marks the far kerb): it walks on to its
         // stop on the far sidewalk and stays; it never darts back across.
@@ -36,18 +29,18 @@ fn at(obs: &Observation, lets_you_go: bool, h: f64) -> Vec<f64> {
         // Walking toward the kerb, one who lets the car go stops back from
         // its edge; on the road, anyone walks on.
         let walked = lat + v * h;
-        return vec![if lets_you_go && lat < KERB_STOP_M { walked.min(KERB_STOP_M) } else { walked }];
+        return vec![if lets_you_go && lat < kerb_stop_m { walked.min(kerb_stop_m) } else { walked }];
     }
     if lets_you_go {
         return vec![lat];
     }
     let now = obs.time_s;
-    let (start, pace) = if lat > EDGE_M {
+    let (start, pace) = if lat > AT_EDGE_M {
         let to_line = obs.scene.ego_to_conflict_m();
         let eta = if obs.ego.speed_mps > 0.1 { to_line / obs.ego.speed_mps } else { f64::INFINITY };
-        (now + (eta - DART_HORIZON_S).max(0.0), DART_MPS)
+        (now + (eta - typical.dart_horizon_s).max(0.0), typical.dart_speed_mps)
     } else {
-        (STEP_OUT_AT_S.max(now), WALK_MPS)
+        (typical.step_out_at_s.max(now), typical.step_out_speed_mps)
     };
     vec![lat + pace * (now + h - start).max(0.0)]
 }

@@ -13,8 +13,11 @@ const BEHIND_MARGIN_M: f64 = 1.5;
 /// Where the expert stops at the latest: this far before the merge point.
 const WAIT_GAP_M: f64 = 2.0;
 /// A lane car this far below its recent mean speed (m/s) is clearly slowing:
-/// twice the noisy tier's speed noise on that difference.
-const SLOWING_MPS: f64 = 1.6;
+/// twice the noisy tier's speed noise (the scenario file's typical figure)
+/// on that difference.
+fn slowing_mps() -> f64 {
+    2.0 * crate::scenario::contested_merge::typical().speed_noise_mps
+}
 /// A slowing lane car still this much faster than the ego (m/s) is not
 /// dropping back but settling to its cruise after closing a gap hard.
 const SETTLING_MARGIN_MPS: f64 = 2.0;
@@ -56,14 +59,14 @@ fn lane_has_room(cars: [&Track; 2], ego_speed: f64) -> bool {
 /// reader a decision late sees a closing bluffer where it was, behind.
 ///
 /// Clearly slowing is measured against its own recent speeds
-/// ([`SLOWING_MPS`]), which a car dropping back shows within one decision
+/// ([`slowing_mps`]), which a car dropping back shows within one decision
 /// whatever the ego's own speed: a driver who eased off while unsure reads
 /// it as soon as one at full pace. A car that is still much faster than the
 /// ego is not making room ([`SETTLING_MARGIN_MPS`]): it may be coming back
 /// down to its cruise after closing a gap hard (the tier-3 bluff).
 fn making_room(lane_car: &Track, ego_speed: f64, exact: bool) -> bool {
     let (rel, v) = (lane_car.now.position_m, lane_car.now.velocity_mps);
-    let dropping_back = speed_trend(lane_car) < -SLOWING_MPS && v < ego_speed + SETTLING_MARGIN_MPS;
+    let dropping_back = speed_trend(lane_car) < -slowing_mps() && v < ego_speed + SETTLING_MARGIN_MPS;
     let slowing = rel < CAR_LENGTH && (dropping_back || (v < ego_speed - 2.5 && lane_car.recent_accel() < 2.0));
     // Behind the ego's centre and no faster: it is letting the ego go.
     let fallen_back = rel < -1.5 && v < ego_speed - 0.5 && !(exact && lane_car.recent_accel() > REGAINING_MPS2);
@@ -229,7 +232,7 @@ mod tests {
     #[test]
     fn a_car_settling_after_a_hard_close_is_not_making_room() {
         let bluffer = track(0.89, [11.86, 14.11, 13.34, 11.84, 10.74]);
-        assert!(speed_trend(&bluffer) < -SLOWING_MPS);
+        assert!(speed_trend(&bluffer) < -slowing_mps());
         assert!(!making_room(&bluffer, 7.0, true));
     }
 }

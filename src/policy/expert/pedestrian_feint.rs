@@ -6,7 +6,7 @@ use super::Move;
 use crate::action::{Action, Maneuver};
 use crate::observation::{Observation, Track};
 use crate::policy::{go, hedge};
-use crate::scenario::pedestrian_feint::{FAR_KERB, PATH_NEAR, X_HALF};
+use crate::scenario::pedestrian_feint::{AT_EDGE_M, FAR_KERB, PATH_NEAR, X_HALF};
 use crate::sim::{EGO_MAX_ACCEL, travel_time};
 
 /// A pedestrian this far from the near kerb (m) is off the road: the car
@@ -31,11 +31,6 @@ const COMMIT_ETA_S: f64 = 1.2;
 /// A pedestrian who steps out late (the delayed step-out) is moving by
 /// this time (s): the world's latest step-out, plus a decision.
 const NO_STEP_OUT_BY_S: f64 = 2.5;
-
-/// A pedestrian standing this near the road (lateral from the near kerb,
-/// m), its toes at the kerb's edge, is about to step in; one who waits for
-/// cars stands back from the edge.
-const EDGE_M: f64 = -0.35;
 
 /// Whether the ego could still stop short of the line if it kept its speed
 /// for one more decision (0.5 s) and then braked hard.
@@ -166,7 +161,7 @@ pub(crate) fn expert(v: f64, v_max: f64, time_s: f64, d: f64, p: &Track) -> Move
     }
     let kerb = lat <= -0.1;
     let standing = vel.abs() < 0.15;
-    let at_edge = lat > EDGE_M && vel >= -0.1;
+    let at_edge = lat > AT_EDGE_M && vel >= -0.1;
     // Picking up pace from the kerb is stepping off (slowing there is stopping).
     let setting_off = vel > 0.3 && p.recent_accel() > 0.3;
     // Crossing: the car waits it out whole, and then goes.

@@ -177,3 +177,43 @@ impl MergeParams {
     }
 }
 
+/// The typical figures of the merge's lane cars, as the public rules read
+/// them (the scenario file in the binary).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Typical {
+    /// A car making room slows at most this hard (m/s^2) to this bumper
+    /// gap behind the ego (m), and picks up speed at lane traffic's
+    /// comfortable rate (m/s^2).
+    pub open_decel_mps2: f64,
+    pub open_gap_m: f64,
+    pub pick_up_mps2: f64,
+    /// A car covering an ego that hangs back brakes up to this (m/s^2).
+    pub max_brake_mps2: f64,
+    /// A car holding the lane draws level with a faster ego at this rate
+    /// (m/s^2), at most this much above its speed (m/s).
+    pub deny_accel_mps2: f64,
+    pub deny_extra_mps: f64,
+    /// The noisy tier's speed noise (m/s, one standard deviation).
+    pub speed_noise_mps: f64,
+}
+
+impl Typical {
+    pub fn of(p: &MergeParams) -> Typical {
+        Typical {
+            open_decel_mps2: p.lane.open_decel_mps2,
+            open_gap_m: p.lane.open_gap_m,
+            pick_up_mps2: p.idm.accel,
+            max_brake_mps2: p.idm.max_brake,
+            deny_accel_mps2: p.lane.deny_accel_mps2,
+            deny_extra_mps: p.lane.deny_extra_mps,
+            speed_noise_mps: p.tier2.speed_noise_mps,
+        }
+    }
+}
+
+/// The built-in file's [`Typical`] figures.
+pub fn typical() -> &'static Typical {
+    static TYPICAL: std::sync::LazyLock<Typical> =
+        std::sync::LazyLock::new(|| Typical::of(&crate::scenario::def::builtin_params::<MergeParams>(&DEF)));
+    &TYPICAL
+}

@@ -161,6 +161,11 @@ pub const PATH_NEAR: f64 = KERB - 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 pub const PATH_FAR: f64 = KERB + 0.5 * (CAR_WIDTH + PEDESTRIAN_SIZE);
 /// Far kerb of the two-lane road.
 pub const FAR_KERB: f64 = 4.0 * KERB;
+/// A pedestrian standing this near the road (lateral from the near kerb,
+/// m), its toes at the kerb's edge, is about to step in; one who waits for
+/// cars stands back from the edge (`pedestrian.kerb_stop_m`). How the
+/// public rules (the expert's, the forecaster's) read the scene.
+pub const AT_EDGE_M: f64 = -0.35;
 /// Where a pedestrian who has crossed stops, on the far sidewalk.
 pub const FAR_STOP: f64 = FAR_KERB + 1.0;
 /// The pedestrian's public frame (lateral from the near kerb, as the scene

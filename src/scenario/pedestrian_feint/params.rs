@@ -195,3 +195,38 @@ impl crate::scenario::ScenarioParams for PedestrianParams {
     }
 }
 
+/// The typical figures of the crosswalk's pedestrian, as the public rules
+/// read them (the scenario file in the binary, middles of ranges).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Typical {
+    /// Where a pedestrian waiting for cars stands (lateral from the near
+    /// kerb, m).
+    pub kerb_stop_m: f64,
+    /// A crosser at the kerb on tier 2 steps out at this time (s), at this
+    /// pace (m/s).
+    pub step_out_at_s: f64,
+    pub step_out_speed_mps: f64,
+    /// A crosser at the edge darts at this pace (m/s), once the car at its
+    /// current speed is due at the line within this (s).
+    pub dart_speed_mps: f64,
+    pub dart_horizon_s: f64,
+}
+
+impl Typical {
+    pub fn of(p: &PedestrianParams) -> Typical {
+        Typical {
+            kerb_stop_m: p.pedestrian.kerb_stop_m,
+            step_out_at_s: p.tier2.step_at_s.mid(),
+            step_out_speed_mps: p.tier2.step_out_speed_mps.mid(),
+            dart_speed_mps: p.tier3.dart_speed_mps,
+            dart_horizon_s: p.tier3.dart_horizon_s.mid(),
+        }
+    }
+}
+
+/// The built-in file's [`Typical`] figures.
+pub fn typical() -> &'static Typical {
+    static TYPICAL: std::sync::LazyLock<Typical> =
+        std::sync::LazyLock::new(|| Typical::of(&crate::scenario::def::builtin_params::<PedestrianParams>(&DEF)));
+    &TYPICAL
+}
