@@ -132,3 +132,82 @@ fn seed_rates(eps: &[&EpisodeScalars]) -> (Vec<f64>, u32) {
     let most = by_seed.values().map(|&(_, n)| n).max().unwrap_or(0);
     (by_seed.into_values().map(|(wins, n)| f64::from(wins) / f64::from(n)).collect(), most)
 }
+
+/// What a probe's tables read of it, the run summary's and the report's:
+/// its metrics per episode, pooled per cell, and its own columns. The
+/// filtering, the key columns and the tables themselves are shared
+/// (`report::probe_rows`, `eval`'s summary); each probe gives only
+/// its own fields.
+pub trait ProbeMetrics: std::fmt::Debug + Clone + 'static {
+    /// One episode's metrics, as its record carries them.
+    type Episode: Copy + 'static;
+    /// A cell's, pooled over its episodes.
+    type Summary: Clone + std::fmt::Debug + serde::Serialize;
+    /// The table's id, and the key its summary is written under.
+    const KEY: &'static str;
+    const TITLE: &'static str;
+    /// What the table's note says of the probe's columns.
+    const NOTE: &'static str;
+    fn of_episode(e: &EpisodeScalars) -> Option<Self::Episode>;
+    fn of_cell(m: &CellMetrics) -> Option<&Self::Summary>;
+    fn pool(episodes: &[Self::Episode]) -> Self::Summary;
+}
+
+/// A probe's own columns, for its tables.
+pub(crate) trait ProbeColumns: ProbeMetrics {
+    fn fields() -> Vec<crate::export::Field<'static, Self::Summary>>;
+}
+
+/// The belief probe's tables.
+#[derive(Debug, Clone)]
+pub struct BeliefProbe;
+
+impl ProbeMetrics for BeliefProbe {
+    type Episode = crate::belief::BeliefMetrics;
+    type Summary = crate::belief::BeliefSummary;
+    const KEY: &'static str = "belief";
+    const TITLE: &'static str = "Belief probe";
+    const NOTE: &'static str = crate::belief::TABLE_NOTE;
+    fn of_episode(e: &EpisodeScalars) -> Option<Self::Episode> {
+        e.belief
+    }
+    fn of_cell(m: &CellMetrics) -> Option<&Self::Summary> {
+        m.belief.as_ref()
+    }
+    fn pool(episodes: &[Self::Episode]) -> Self::Summary {
+        crate::belief::BeliefSummary::of(episodes.iter())
+    }
+}
+
+impl ProbeColumns for BeliefProbe {
+    fn fields() -> Vec<crate::export::Field<'static, Self::Summary>> {
+        crate::belief::fields()
+    }
+}
+
+/// The forecast probe's tables.
+#[derive(Debug, Clone)]
+pub struct ForecastProbe;
+
+impl ProbeMetrics for ForecastProbe {
+    type Episode = crate::forecast::ForecastMetrics;
+    type Summary = crate::forecast::ForecastSummary;
+    const KEY: &'static str = "forecast";
+    const TITLE: &'static str = "Forecast probe";
+    const NOTE: &'static str = crate::forecast::metrics::TABLE_NOTE;
+    fn of_episode(e: &EpisodeScalars) -> Option<Self::Episode> {
+        e.forecast
+    }
+    fn of_cell(m: &CellMetrics) -> Option<&Self::Summary> {
+        m.forecast.as_ref()
+    }
+    fn pool(episodes: &[Self::Episode]) -> Self::Summary {
+        crate::forecast::ForecastSummary::of(episodes.iter())
+    }
+}
+
+impl ProbeColumns for ForecastProbe {
+    fn fields() -> Vec<crate::export::Field<'static, Self::Summary>> {
+        crate::forecast::metrics::fields()
+    }
+}

@@ -2,8 +2,8 @@
 //! of the selection. Infrastructure errors are excluded from every score and
 //! shown as their own column.
 
-use crate::belief::BeliefSummary;
 use crate::export::{Cell, Column, Exporter, Field, MarkdownExporter, Style, Table, f2};
+use crate::metrics::{BeliefProbe, ForecastProbe, ProbeColumns, ProbeMetrics};
 use crate::metrics::{CellMetrics, RESAMPLES};
 use crate::rundir::record::EpisodeScalars;
 use crate::scenario::{ScenarioKind, Tier};
@@ -121,59 +121,28 @@ fn key_fields() -> Vec<Field<'static, CellSummary>> {
     ]
 }
 
-/// The belief table of a probe run: one row per (scenario, tier) with
-/// belief metrics (None when no cell has any).
-pub(crate) fn belief_table(summary: &Summary) -> Option<Table> {
-    type Probed<'a> = (&'a CellSummary, &'a BeliefSummary);
-    let probed: Vec<Probed> = summary.cells.iter().filter_map(|c| Some((c, c.metrics.belief.as_ref()?))).collect();
-    fn cell<'a>(p: &'a Probed<'_>) -> &'a CellSummary {
-        p.0
-    }
-    fn belief<'a>(p: &'a Probed<'_>) -> &'a BeliefSummary {
-        p.1
-    }
-    let fields: Vec<Field<Probed>> = [
-        key_fields().into_iter().map(|f| f.of(cell)).collect(),
-        vec![Field::new(Column::new("n", "episodes"), |(c, _): &Probed| Cell::Int(c.metrics.episodes as u64))],
-        crate::belief::fields().into_iter().map(|f| f.of(belief)).collect(),
+/// A probe's table of a probe run: one row per (scenario, tier) with the
+/// probe's metrics (None when no cell has any).
+pub(crate) fn probe_table<P: ProbeColumns>(summary: &Summary) -> Option<Table> {
+    type Probed<'a, P> = (&'a CellSummary, &'a <P as ProbeMetrics>::Summary);
+    let probed: Vec<Probed<P>> = summary.cells.iter().filter_map(|c| Some((c, P::of_cell(&c.metrics)?))).collect();
+    let fields: Vec<Field<Probed<P>>> = [
+        key_fields().into_iter().map(|f| f.of(|p: &Probed<P>| p.0)).collect(),
+        vec![Field::new(Column::new("n", "episodes"), |(c, _): &Probed<P>| Cell::Int(c.metrics.episodes as u64))],
+        P::fields().into_iter().map(|f| f.of(|p: &Probed<P>| p.1)).collect(),
     ]
     .into_iter()
     .flatten()
     .collect();
-    let mut t = Table::of("belief", "Belief probe", &fields, &probed);
-    t.note(crate::belief::TABLE_NOTE);
-    (!probed.is_empty()).then_some(t)
-}
-
-/// The forecast table of a probe run: one row per (scenario, tier) with
-/// forecast metrics (None when no cell has any).
-pub(crate) fn forecast_table(summary: &Summary) -> Option<Table> {
-    use crate::forecast::ForecastSummary;
-    type Probed<'a> = (&'a CellSummary, &'a ForecastSummary);
-    let probed: Vec<Probed> = summary.cells.iter().filter_map(|c| Some((c, c.metrics.forecast.as_ref()?))).collect();
-    fn cell<'a>(p: &'a Probed<'_>) -> &'a CellSummary {
-        p.0
-    }
-    fn forecast<'a>(p: &'a Probed<'_>) -> &'a ForecastSummary {
-        p.1
-    }
-    let fields: Vec<Field<Probed>> = [
-        key_fields().into_iter().map(|f| f.of(cell)).collect(),
-        vec![Field::new(Column::new("n", "episodes"), |(c, _): &Probed| Cell::Int(c.metrics.episodes as u64))],
-        crate::forecast::metrics::fields().into_iter().map(|f| f.of(forecast)).collect(),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    let mut t = Table::of("forecast", "Forecast probe", &fields, &probed);
-    t.note(crate::forecast::metrics::TABLE_NOTE);
+    let mut t = Table::of(P::KEY, P::TITLE, &fields, &probed);
+    t.note(P::NOTE);
     (!probed.is_empty()).then_some(t)
 }
 
 /// `summary.md` and the table printed at the end of a run: the model, the
 /// leaderboard in Markdown, the probe tables of a probe run, and the totals.
 pub fn render(summary: &Summary) -> String {
-    let belief = [belief_table(summary), forecast_table(summary)]
+    let belief = [probe_table::<BeliefProbe>(summary), probe_table::<ForecastProbe>(summary)]
         .into_iter()
         .flatten()
         .map(|t| format!("\n{}", MarkdownExporter { heading_level: 2 }.render(&t)))

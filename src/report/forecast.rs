@@ -7,12 +7,12 @@
 //! forecast table.
 
 use super::load::ModelData;
+use super::probe_rows::ProbeRow;
 use crate::baselines::{GridSpec, run_forecast_grid};
-use crate::export::{Cell, Column, Field, Style, Table};
-use crate::forecast::ForecastSummary;
+use crate::export::Table;
+use crate::metrics::ForecastProbe;
 use crate::policy::PolicyKind;
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
-use serde::Serialize;
 
 /// What marks a reference forecaster's row (the table's note says it).
 const REFERENCE_MARK: &str = "*";
@@ -20,43 +20,13 @@ const REFERENCE_MARK: &str = "*";
 /// Episodes (seeds from 0) of the reference rows.
 const REFERENCE_EPISODES: usize = 200;
 
-#[derive(Debug, Clone, Serialize)]
-pub struct ForecastRow {
-    /// The model, or a reference forecaster's name and `*`.
-    pub model: String,
-    pub scenario: ScenarioKind,
-    pub tier: Tier,
-    /// Episodes with forecast metrics.
-    pub episodes: usize,
-    pub forecast: ForecastSummary,
-}
+/// A row of the forecast table: a model's, or a reference forecaster's.
+pub type ForecastRow = ProbeRow<ForecastProbe>;
 
-/// Every (model, scenario, tier) cell with forecast metrics, in model
-/// order, then scenario and tier order; then the references' rows on the
-/// same cells.
+/// Every (model, scenario, tier) cell with forecast metrics, then the
+/// references' rows on the same cells.
 pub(crate) fn rows(models: &[&ModelData]) -> Vec<ForecastRow> {
-    let mut out = Vec::new();
-    for m in models {
-        for scenario in ScenarioKind::ALL {
-            for tier in Tier::ALL {
-                let metrics: Vec<_> = m
-                    .episodes
-                    .iter()
-                    .filter(|e| e.scenario == scenario && e.tier == tier)
-                    .filter_map(|e| e.forecast)
-                    .collect();
-                if !metrics.is_empty() {
-                    out.push(ForecastRow {
-                        model: m.label.clone(),
-                        scenario,
-                        tier,
-                        episodes: metrics.len(),
-                        forecast: ForecastSummary::of(metrics.iter()),
-                    });
-                }
-            }
-        }
-    }
+    let mut out = super::probe_rows::rows::<ForecastProbe>(models);
     let mut cells: Vec<(ScenarioKind, Tier)> = out.iter().map(|r| (r.scenario, r.tier)).collect();
     cells.sort();
     cells.dedup();
@@ -82,32 +52,17 @@ fn references(cells: &[(ScenarioKind, Tier)]) -> Vec<ForecastRow> {
                 scenario,
                 tier,
                 episodes: r.n,
-                forecast: r.forecast,
+                summary: r.forecast,
             })
         })
         .collect()
 }
 
+/// The forecast table, its note saying what marks a reference's row.
 pub(crate) fn table(rows: &[ForecastRow]) -> Table {
-    let fields: Vec<Field<ForecastRow>> = [
-        vec![
-            Field::new(Column::new("model", "model"), |r: &ForecastRow| Cell::text(r.model.clone())),
-            Field::new(Column::new("scenario", "scenario").style(Style::Code), |r: &ForecastRow| {
-                Cell::text(r.scenario.to_string())
-            }),
-            Field::new(Column::new("tier", "tier"), |r: &ForecastRow| Cell::Int(r.tier.number().into())),
-            Field::new(Column::new("n", "episodes"), |r: &ForecastRow| Cell::Int(r.episodes as u64)),
-        ],
-        crate::forecast::metrics::fields().into_iter().map(|f| f.of(|r: &ForecastRow| &r.forecast)).collect(),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    let mut t = Table::of("forecast", "Forecast probe", &fields, rows);
-    t.note(format!(
-        "{} {REFERENCE_MARK}: a reference forecaster, along the expert's episodes (seeds 0-{}).",
-        crate::forecast::metrics::TABLE_NOTE,
+    let more = format!(
+        "{REFERENCE_MARK}: a reference forecaster, along the expert's episodes (seeds 0-{}).",
         REFERENCE_EPISODES - 1
-    ));
-    t
+    );
+    super::probe_rows::table(rows, Some(&more))
 }

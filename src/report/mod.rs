@@ -10,7 +10,6 @@
 //! maneuver timelines draw; [`plots`] one file per kind of figure; [`html`] the page.
 //! Tables are [`crate::export`] tables.
 
-pub mod belief;
 pub mod boot;
 pub mod drill;
 pub mod forecast;
@@ -21,6 +20,7 @@ pub mod passk;
 pub mod pdf;
 pub mod pick;
 pub mod plots;
+pub mod probe_rows;
 pub mod reference;
 pub mod tables;
 pub mod timing;
@@ -143,7 +143,7 @@ pub struct Report {
     pub pass_k: Vec<PassKRow>,
     /// Belief-probe runs: one row per (model, scenario, tier).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub belief: Vec<belief::BeliefRow>,
+    pub belief: Vec<probe_rows::ProbeRow<crate::metrics::BeliefProbe>>,
     /// Forecast-probe runs: one row per (model, scenario, tier), then the
     /// reference forecasters' rows on the same cells.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -289,7 +289,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     let costs = tables::cost_rows(&ordered);
     let paired = paired::all_pairs(&ordered, &tiers, opts.resamples, opts.seed);
     let pass_k = passk::pass_k_rows(&ordered, &tiers);
-    let belief = belief::rows(&ordered);
+    let belief = probe_rows::rows::<crate::metrics::BeliefProbe>(&ordered);
     let forecast = forecast::rows(&ordered);
     let timing = timing::rows(&ordered, &refs, &tiers);
     // Named episodes first, so the drill-down carries their transcripts too.
@@ -381,7 +381,7 @@ impl Report {
             t.push(timing::table(&self.timing, &self.tiers));
         }
         if !self.belief.is_empty() {
-            t.push(belief::table(&self.belief));
+            t.push(probe_rows::table(&self.belief, None));
         }
         if !self.forecast.is_empty() {
             t.push(forecast::table(&self.forecast));

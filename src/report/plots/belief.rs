@@ -22,7 +22,7 @@ fn probed(input: &PlotInput) -> Vec<(Series, crate::belief::BeliefSummary)> {
         .into_iter()
         .filter_map(|s| {
             let model = input.data.models.iter().find(|m| m.label == s.label)?;
-            Some((s, crate::report::belief::pooled(model)?))
+            Some((s, crate::report::probe_rows::pooled::<crate::metrics::BeliefProbe>(model)?))
         })
         .collect()
 }
@@ -52,15 +52,7 @@ fn reliability(input: &PlotInput) -> Option<Plot> {
     svg.line(left, top + size, left + size, top, INK, 1.2, Some("6 4"));
     svg.text(left + size / 2.0, top + size + sp(30.0), "stated belief (bin mean)", 11.0, "middle", "");
     let mid = top + size / 2.0;
-    let x_label = super::n(sp(14.0));
-    svg.text(
-        sp(14.0),
-        mid,
-        "observed: the other let the ego pass",
-        11.0,
-        "middle",
-        &format!(" transform=\"rotate(-90 {x_label} {mid})\""),
-    );
+    svg.text_up(sp(14.0), mid, "observed: the other let the ego pass", 11.0);
     let at = |b: f64, o: f64| (left + b.clamp(0.0, 1.0) * size, top + size - o.clamp(0.0, 1.0) * size);
     for (m, summary) in &models {
         let bins: Vec<_> = summary.reliability.iter().filter(|b| b.turns > 0).collect();

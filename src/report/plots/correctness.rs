@@ -49,14 +49,7 @@ fn frame(svg: &mut Svg, left: f64, top: f64, size: f64) {
     // where no point can be.
     svg.text(left + size - 14.0, top - v(8.0), "dashed: success = correctness", 10.0, "end", " fill=\"#555\"");
     svg.text(left + size / 2.0, top + size + v(32.0), "decision correctness", 11.0, "middle", "");
-    svg.text(
-        v(14.0),
-        top + size / 2.0,
-        "success",
-        11.0,
-        "middle",
-        &format!(" transform=\"rotate(-90 {} {})\"", super::n(v(14.0)), top + size / 2.0),
-    );
+    svg.text_up(v(14.0), top + size / 2.0, "success", 11.0);
 }
 
 /// Marker shapes tell scenarios apart while the colours tell the models

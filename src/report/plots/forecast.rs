@@ -18,7 +18,7 @@ pub(crate) fn plots(input: &PlotInput) -> Vec<Plot> {
 
 /// The bins of `rows`, pooled offset by offset.
 fn pooled<'a>(rows: impl Iterator<Item = &'a ForecastRow> + Clone) -> Vec<OffsetBin> {
-    OFFSETS.map(|o| OffsetBin::pool(o, rows.clone().flat_map(|r| r.forecast.by_offset.iter()))).collect()
+    OFFSETS.map(|o| OffsetBin::pool(o, rows.clone().flat_map(|r| r.summary.by_offset.iter()))).collect()
 }
 
 fn by_turn(input: &PlotInput) -> Option<Plot> {
@@ -80,15 +80,7 @@ fn by_turn(input: &PlotInput) -> Option<Plot> {
         }
     }
     let mid = top + h / 2.0;
-    let xl = super::n(sp(14.0));
-    svg.text(
-        sp(14.0),
-        mid,
-        "mean absolute error (m)",
-        11.0,
-        "middle",
-        &format!(" transform=\"rotate(-90 {xl} {mid})\""),
-    );
+    svg.text_up(sp(14.0), mid, "mean absolute error (m)", 11.0);
     let lx = left + 2.0 * w + gap + 30.0;
     let mut ly = top + sp(6.0);
     for (m, _) in &models {

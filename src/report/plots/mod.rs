@@ -206,6 +206,19 @@ pub(crate) fn n(x: f64) -> String {
     if x == 0.0 { "0".into() } else { format!("{x}") }
 }
 
+/// How many of `n` panels, each `panel_w` wide with `gap` after it, a row
+/// of a figure holds after `left`: every one in the default style; in
+/// paper style as many as keep the figure within [`Style::max_width`] (at
+/// least one), so that a figure of any number of scenarios still prints
+/// its text at 8 pt, wrapping its panels onto more rows.
+pub(crate) fn panels_per_row(style: Style, n: usize, left: f64, panel_w: f64, gap: f64) -> usize {
+    let n = n.max(1);
+    match style.max_width() {
+        None => n,
+        Some(max) => (((max - left - 10.0) / (panel_w + gap)).floor().max(1.0) as usize).min(n),
+    }
+}
+
 /// Approximate width of a text in pixels at `size`.
 pub(crate) fn text_width(s: &str, size: f64) -> f64 {
     s.chars().count() as f64 * size * 0.58
@@ -357,6 +370,11 @@ impl Svg {
     }
 
     /// Text; `anchor` is start, middle or end; `extra` more attributes.
+    /// A vertical axis title: `s` turned a quarter left, centred at (x, y).
+    pub(crate) fn text_up(&mut self, x: f64, y: f64, s: &str, size: f64) {
+        self.text(x, y, s, size, "middle", &format!(" transform=\"rotate(-90 {} {})\"", n(x), n(y)));
+    }
+
     pub(crate) fn text(&mut self, x: f64, y: f64, s: &str, size: f64, anchor: &str, extra: &str) {
         let fill = if extra.contains(" fill=") { String::new() } else { format!(" fill=\"{INK}\"") };
         let size = self.font_px(size);
@@ -492,6 +510,19 @@ fn tick(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn panels_wrap_within_the_paper_width_whatever_their_number() {
+        for n in 1..=12 {
+            assert_eq!(panels_per_row(Style::Default, n, 80.0, 220.0, 40.0), n);
+            let per_row = panels_per_row(Style::Paper, n, 80.0, 220.0, 40.0);
+            assert!((1..=n).contains(&per_row), "{n}");
+            assert!(80.0 + per_row as f64 * 260.0 + 10.0 <= Style::Paper.max_width().unwrap(), "{n}: {per_row}");
+            // No room left for one more in a row.
+            assert!(per_row == n || 80.0 + (per_row + 1) as f64 * 260.0 + 10.0 > 945.0, "{n}: {per_row}");
+        }
+        assert_eq!(panels_per_row(Style::Paper, 3, 900.0, 220.0, 40.0), 1, "at least one");
+    }
 
     #[test]
     fn overlaps_count_coincident_points_and_jitter_is_stable_and_bounded() {

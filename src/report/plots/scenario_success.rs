@@ -29,15 +29,20 @@ fn dot_whisker(st: Style, name: &str, title: &str, caption: String, models: &[Se
     } else {
         "success rate (dot: estimate; whisker: 95% percentile bootstrap CI)"
     };
+    // However narrow, too many panels for a paper's width wrap onto more rows.
+    let per_row = super::panels_per_row(st, panels.len(), label_w, pw, gap);
+    let panel_rows = panels.len().max(1).div_ceil(per_row);
+    let band = top + models.len() as f64 * row_h + v(40.0) - v(10.0);
     // Wide enough for the axis label too (one panel alone is narrower).
-    let width =
-        (label_w + panels.len() as f64 * (pw + gap) + 10.0).max(label_w + st.text_width(axis_label, 10.0) + 10.0);
-    let height = top + models.len() as f64 * row_h + v(40.0);
+    let width = (label_w + per_row as f64 * (pw + gap) + 10.0).max(label_w + st.text_width(axis_label, 10.0) + 10.0);
+    let height = top + models.len() as f64 * row_h + v(40.0) + (panel_rows - 1) as f64 * band;
     let mut svg = Svg::new(width, height, st);
     svg.title(10.0, 18.0, title, 14.0, v(22.0));
-    let bottom = top + models.len() as f64 * row_h;
     for (p, panel) in panels.iter().enumerate() {
-        let x0 = label_w + p as f64 * (pw + gap);
+        let x0 = label_w + (p % per_row) as f64 * (pw + gap);
+        let shift = (p / per_row) as f64 * band;
+        let (top, bottom) = (top + shift, top + shift + models.len() as f64 * row_h);
+        let v = |x: f64| shift + v(x);
         svg.rect(x0, top - 6.0, pw, bottom - top + 6.0, "#fafafa", "");
         svg.text(x0 + pw / 2.0, v(34.0), &panel.title, 12.0, "middle", " font-weight=\"bold\"");
         rate_axis_x(&mut svg, x0, pw, top - 6.0, bottom);
@@ -71,9 +76,11 @@ fn dot_whisker(st: Style, name: &str, title: &str, caption: String, models: &[Se
             svg.marker(models[i].shape, x(v.estimate), y, 4.5, color, INK, Some(&tip));
         }
     }
-    for (i, m) in models.iter().enumerate() {
-        let y = top + (i as f64 + 0.5) * row_h + v(4.0);
-        svg.text_tip(label_w - 8.0, y, &m.name, 11.0, "end", &m.label);
+    for row in 0..panel_rows {
+        for (i, m) in models.iter().enumerate() {
+            let y = top + row as f64 * band + (i as f64 + 0.5) * row_h + v(4.0);
+            svg.text_tip(label_w - 8.0, y, &m.name, 11.0, "end", &m.label);
+        }
     }
     svg.text(label_w, height - v(6.0), axis_label, 10.0, "start", "");
     Plot { name: name.into(), title: title.into(), caption, svg: svg.finish(title) }

@@ -15,7 +15,11 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
     // Lengths that hold text grow with it (paper style).
     let v = |x: f64| st.space(x);
     let (left, top, pw, ph, gap) = (v(64.0), v(46.0), 220.0, 220.0, v(40.0));
-    let width = left + scenarios.len().max(1) as f64 * (pw + gap);
+    // Panels wrap onto more rows where a paper's width would shrink their text.
+    let per_row = super::panels_per_row(st, scenarios.len(), left, pw, gap);
+    let panel_rows = scenarios.len().max(1).div_ceil(per_row);
+    let row_step = ph + v(46.0);
+    let width = left + per_row as f64 * (pw + gap);
     // Legend rows, wrapped as drawn below.
     let mut legend_rows = 1.0;
     let mut lx = 10.0;
@@ -27,7 +31,8 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         }
         lx += w;
     }
-    let height = top + ph + v(52.0) + legend_rows * v(18.0);
+    let below = top + (panel_rows - 1) as f64 * row_step + ph;
+    let height = below + v(52.0) + legend_rows * v(18.0);
     let mut svg = Svg::new(width, height, st);
     let title = "Tier ladder: success by tier";
     svg.title(10.0, 20.0, title, 14.0, v(24.0));
@@ -36,19 +41,14 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
         let k = (tiers.len().max(2) - 1) as f64;
         x0 + 20.0 + i * (pw - 40.0) / k
     };
-    let y = |v: f64| top + ph - v.clamp(0.0, 1.0) * ph;
-    let mid = top + ph / 2.0;
     let x_label = v(16.0);
-    svg.text(
-        x_label,
-        mid,
-        "success rate",
-        11.0,
-        "middle",
-        &format!(" transform=\"rotate(-90 {} {})\"", super::n(x_label), super::n(mid)),
-    );
     for (p, &s) in scenarios.iter().enumerate() {
-        let x0 = left + p as f64 * (pw + gap);
+        let x0 = left + (p % per_row) as f64 * (pw + gap);
+        let top = top + (p / per_row) as f64 * row_step;
+        let y = |v: f64| top + ph - v.clamp(0.0, 1.0) * ph;
+        if p % per_row == 0 {
+            svg.text_up(x_label, top + ph / 2.0, "success rate", 11.0);
+        }
         svg.rect(x0, top, pw, ph, "#fafafa", "");
         rate_axis_y(&mut svg, top, ph, x0, x0 + pw);
         svg.text(x0 + pw / 2.0, top - v(8.0), &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
@@ -82,7 +82,7 @@ pub(crate) fn plot(input: &PlotInput) -> Plot {
     }
     // Legend.
     let mut lx = 10.0;
-    let mut ly = top + ph + v(40.0);
+    let mut ly = below + v(40.0);
     for m in &models {
         if lx + st.text_width(&m.name, 11.0) + 30.0 > width - 10.0 && lx > 10.0 {
             lx = 10.0;

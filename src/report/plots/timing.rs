@@ -48,14 +48,21 @@ fn panels(input: &PlotInput) -> Plot {
     let (pw, gap, row_h) = (200.0, sp(26.0), sp(20.0));
     let block = models.len() as f64 * row_h;
     let (top1, top2) = (sp(62.0), sp(62.0) + block + sp(70.0));
-    let width = label_w + scen.len() as f64 * (pw + gap) + 10.0;
-    let mut svg = Svg::new(width.max(label_w + sp(420.0)), top2 + block + sp(40.0), st);
+    // Too many scenarios for a paper's width wrap onto another band of both rows.
+    let per_row = super::panels_per_row(st, scen.len(), label_w, pw, gap);
+    let bands = scen.len().max(1).div_ceil(per_row);
+    let band = top2 + block + sp(40.0) - sp(20.0);
+    let width = label_w + per_row as f64 * (pw + gap) + 10.0;
+    let height = top2 + block + sp(40.0) + (bands - 1) as f64 * band;
+    let mut svg = Svg::new(width.max(label_w + sp(420.0)), height, st);
     let title = format!("Evidence timing by scenario ({})", tiers_label(&input.leaderboard.tiers));
     svg.title(10.0, 18.0, &title, 14.0, sp(24.0));
     let lag_max = lag_axis_max(rows);
     for (p, s) in scen.iter().enumerate() {
-        let x0 = label_w + p as f64 * (pw + gap);
-        svg.text(x0 + pw / 2.0, sp(36.0), &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
+        let x0 = label_w + (p % per_row) as f64 * (pw + gap);
+        let shift = (p / per_row) as f64 * band;
+        let (top1, top2) = (top1 + shift, top2 + shift);
+        svg.text(x0 + pw / 2.0, shift + sp(36.0), &s.to_string(), 12.0, "middle", " font-weight=\"bold\"");
         let cell = |m: &Series| rows.iter().find(|r| r.model == m.label && r.scenario == *s);
         // Guess rate, [0, 1].
         rate_axis_x(&mut svg, x0, pw, top1 - 6.0, top1 + block);
@@ -91,20 +98,23 @@ fn panels(input: &PlotInput) -> Plot {
             svg.marker(m.shape, x, y, 4.5, m.color, INK, Some(&tip));
         }
     }
-    for (i, m) in models.iter().enumerate() {
-        for top in [top1, top2] {
-            svg.text_tip(label_w - 8.0, top + (i as f64 + 0.5) * row_h + sp(4.0), &m.name, 11.0, "end", &m.label);
+    for shift in (0..bands).map(|b| b as f64 * band) {
+        let (top1, top2) = (top1 + shift, top2 + shift);
+        for (i, m) in models.iter().enumerate() {
+            for top in [top1, top2] {
+                svg.text_tip(label_w - 8.0, top + (i as f64 + 0.5) * row_h + sp(4.0), &m.name, 11.0, "end", &m.label);
+            }
         }
+        svg.text(
+            label_w,
+            top1 + block + sp(30.0),
+            "guess rate (committed before the evidence; whisker: 95% Wilson)",
+            10.0,
+            "start",
+            "",
+        );
+        svg.text(label_w, top2 + block + sp(30.0), "evidence-to-commitment lag (turns)", 10.0, "start", "");
     }
-    svg.text(
-        label_w,
-        top1 + block + sp(30.0),
-        "guess rate (committed before the evidence; whisker: 95% Wilson)",
-        10.0,
-        "start",
-        "",
-    );
-    svg.text(label_w, top2 + block + sp(30.0), "evidence-to-commitment lag (turns)", 10.0, "start", "");
     svg.line(label_w + sp(300.0), sp(50.0), label_w + sp(300.0) + 18.0, sp(50.0), REFERENCE, 1.6, Some("5 3"));
     svg.text(
         label_w + sp(300.0) + 22.0,
@@ -148,8 +158,7 @@ fn success_vs_guess(input: &PlotInput) -> Plot {
     rate_axis_x(&mut svg, left, size, top, top + size);
     svg.text(left + size / 2.0, top + size + sp(32.0), "guess rate", 11.0, "middle", "");
     let mid = top + size / 2.0;
-    let x_label = super::n(sp(14.0));
-    svg.text(sp(14.0), mid, "success", 11.0, "middle", &format!(" transform=\"rotate(-90 {x_label} {mid})\""));
+    svg.text_up(sp(14.0), mid, "success", 11.0);
     let at = |g: f64, s: f64| (left + g.clamp(0.0, 1.0) * size, top + size - s.clamp(0.0, 1.0) * size);
     let shape_of = |k: usize, m: &Series| if models.iter().all(|m| m.shape == 0) { k } else { m.shape };
     for (k, s) in scen.iter().enumerate() {

@@ -332,7 +332,7 @@ fn positions(svg: &mut Svg, fig: &Figure, st: &Scale, (ay0, ay1): (f64, f64)) {
     svg.line(tx0, sa.at(0.0), tx1, sa.at(0.0), INK, 1.0, Some("4 3"));
     svg.text(tx0 + 4.0, sa.at(0.0) - 3.0, fig.axes.zero_label, 9.0, "start", " fill=\"#555\"");
     let title = if along_users.is_empty() { "ego position (m)" } else { "position (m)" };
-    axis_label(svg, tx0 - 36.0, (ay0 + ay1) / 2.0, title);
+    svg.text_up(tx0 - 36.0, (ay0 + ay1) / 2.0, title, 10.0);
     let mut labels = Labels::new(1.0);
     let ego_pos: Vec<(f64, f64)> = series.iter().map(|s| (st.at(s.0), sa.at(s.1))).collect();
     svg.polyline(&ego_pos, EGO, 2.2, None);
@@ -346,11 +346,6 @@ fn positions(svg: &mut Svg, fig: &Figure, st: &Scale, (ay0, ay1): (f64, f64)) {
             labels.put(svg, tx1 + 4.0, y + 3.5, &fig.axes.role(k), agent_color(k));
         }
     }
-}
-
-/// A vertical axis title, rotated, centred at (x, y).
-fn axis_label(svg: &mut Svg, x: f64, y: f64, label: &str) {
-    svg.text(x, y, label, 10.0, "middle", &format!(" transform=\"rotate(-90 {} {})\"", n(x), n(y)));
 }
 
 /// The `k`-th road user's position in its lateral frame (the pedestrian
@@ -389,7 +384,7 @@ fn lateral_panel(svg: &mut Svg, fig: &Figure, st: &Scale, k: usize, frame: &Late
         labels.put(svg, tx1 + 4.0, y + 3.5, &role, agent_color(k));
     }
     svg.text(tx0, ly0 - 5.0, &format!("{role}, {} (m), as the scene text gives it", frame.measured), 10.0, "start", "");
-    axis_label(svg, tx0 - 36.0, (ly0 + ly1) / 2.0, "lateral (m)");
+    svg.text_up(tx0 - 36.0, (ly0 + ly1) / 2.0, "lateral (m)", 10.0);
 }
 
 /// Every road user's speed over time.
@@ -400,7 +395,7 @@ fn speeds(svg: &mut Svg, fig: &Figure, st: &Scale, (vy0, vy1): (f64, f64)) {
     let sv = Scale::new(0.0, vmax * 1.05, vy1, vy0);
     svg.rect(tx0, vy0, tx1 - tx0, vy1 - vy0, "#fafafa", "");
     y_ticks(svg, &sv, tx0, tx1);
-    axis_label(svg, tx0 - 36.0, (vy0 + vy1) / 2.0, "speed (m/s)");
+    svg.text_up(tx0 - 36.0, (vy0 + vy1) / 2.0, "speed (m/s)", 10.0);
     for k in 0..=fig.others {
         let pts: Vec<(f64, f64)> =
             traj.iter().filter_map(|p| p.agents.get(k).map(|a| (st.at(p.time_s), sv.at(a.v)))).collect();
