@@ -8,8 +8,9 @@
 # WARM_START=expert trains every cell from a DAgger warm start on that
 # built-in policy (train.py's --warm-start) into results/rl/warm-start-expert/.
 # TRAIN_ARGS (e.g. --native) are added to every train.py command.
-# SCENARIOS (default all three) retrains only those scenarios' cells, e.g.
-# after a change to one world; summary.json still lists every cell.
+# SCENARIOS (default: every scenario the binary serves, from env-server's
+# /metadata) retrains only those scenarios' cells, e.g. after a change to
+# one world; summary.json still lists every cell, in the served order.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 steps=${1:-400000}
@@ -20,8 +21,12 @@ export NEGOTIATOR_BIN=${NEGOTIATOR_BIN:-$(pwd)/target/release/negotiator}
 warm=${WARM_START:-}
 out=results/rl${warm:+/warm-start-$warm}
 mkdir -p "$out"
+served=$("$python" -c 'from negotiator.server import LocalServer; from negotiator_gym.env import scenarios_at
+server = LocalServer(__import__("os").environ["NEGOTIATOR_BIN"])
+try: print(" ".join(scenarios_at(server.url)))
+finally: server.close()')
 cells=()
-for s in ${SCENARIOS:-yield_standoff pedestrian_feint contested_merge}; do
+for s in ${SCENARIOS:-$served}; do
   for t in 1 2 3; do cells+=("$s $t"); done
 done
 train_cell() { # scenario tier
@@ -39,9 +44,10 @@ for c in "${cells[@]}"; do
   if [ "$running" -ge "$jobs" ]; then wait -n; running=$((running - 1)); fi
 done
 wait
-"$python" - "$out" "$steps" "$warm" <<'PY'
+"$python" - "$out" "$steps" "$warm" "$served" <<'PY'
 import json, pathlib, sys
 out, steps, warm = pathlib.Path(sys.argv[1]), int(sys.argv[2]), sys.argv[3] or None
+served = sys.argv[4].split()
 keys = ["scenario", "tier", "n", "success", "collision", "timeout", "decision_correctness", "hack_rate",
         "expert_hack_rate", "masked_success", "expert_success", "no_hack", "reads", "success_minus_expert",
         "success_minus_expert_stderr"]
@@ -53,8 +59,7 @@ for cell in sorted(out.glob("*-t[123]/hack_check.json")):
     row["warm_start"] = warm
     row["checkpoint"] = str(cell.parent)
     entries.append(row)
-order = {"yield_standoff": 0, "pedestrian_feint": 1, "contested_merge": 2}
-entries.sort(key=lambda r: (order[r["scenario"]], r["tier"]))
+entries.sort(key=lambda r: (served.index(r["scenario"]), r["tier"]))
 (out / "summary.json").write_text(json.dumps(entries, indent=2) + "\n")
 print(f"{out / 'summary.json'}: {len(entries)} cells")
 PY

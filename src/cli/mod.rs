@@ -210,3 +210,117 @@ mod tests {
         }
     }
 }
+
+/// A scenario added through the registry alone (the unit tests' registry
+/// adds `toy_crossing`: its own files and nothing else) runs through the
+/// commands a user would run on it, by name: `baselines`, `eval --dry-run`,
+/// `eval` against the served expert, and `report`.
+#[cfg(test)]
+mod a_scenario_added_through_the_registry {
+    use super::{Cli, run};
+    use clap::Parser;
+    use std::path::Path;
+
+    fn negotiator(args: &[&str]) {
+        let cli = Cli::try_parse_from(std::iter::once("negotiator").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        let code = run(cli).unwrap_or_else(|e| panic!("{args:?}: {e:#}"));
+        assert_eq!(format!("{code:?}"), format!("{:?}", std::process::ExitCode::SUCCESS), "{args:?}");
+    }
+
+    /// `serve --policy expert` on a free port, in this process.
+    fn serve_expert() -> String {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        listener.set_nonblocking(true).unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let config = crate::serve::ServeConfig {
+            policy: crate::policy::PolicyKind::Expert,
+            seed: 0,
+            latency: std::time::Duration::ZERO,
+            fail_rate: 0.0,
+            rate_limit: None,
+            drop_rate: 0.0,
+            garbage_rate: 0.0,
+            belief: None,
+            forecast: None,
+        };
+        std::thread::spawn(move || {
+            let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
+            runtime.block_on(async {
+                let listener = tokio::net::TcpListener::from_std(listener).unwrap();
+                crate::serve::serve(listener, config).await
+            })
+        });
+        format!("http://127.0.0.1:{port}/v1")
+    }
+
+    #[test]
+    fn baselines_eval_and_the_report_take_it_by_name() {
+        let root = std::env::temp_dir().join(format!("negotiator-toy-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let (out, report) = (root.join("runs"), root.join("report"));
+        let path = |p: &Path| p.to_str().unwrap().to_string();
+        let toy = "toy_crossing";
+        let expert = crate::baselines::run_grid(
+            &crate::scenario::ScenarioSet::default(),
+            &crate::baselines::GridSpec {
+                scenarios: vec![toy.parse().unwrap()],
+                tiers: crate::scenario::Tier::ALL.to_vec(),
+                policies: vec![crate::policy::PolicyKind::Expert],
+                episodes: 20,
+                seed_base: 0,
+            },
+            &|_, _| {},
+        );
+        assert_eq!(expert.len(), 3);
+        assert!(expert.iter().all(|c| c.success.estimate == 1.0), "{expert:?}");
+        negotiator(&["baselines", "--scenario", toy, "-n", "5", "--format", "csv"]);
+        let base_url = serve_expert();
+        let eval =
+            ["eval", "--base-url", &base_url, "--model", "expert", "--scenario", toy, "--tier", "all", "-n", "3"];
+        negotiator(&[&eval[..], &["--dry-run"]].concat());
+        negotiator(&[&eval[..], &["--output", &path(&out), "--run-name", "toy", "--quiet"]].concat());
+        negotiator(&["report", "--quiet", "--format", "md", "--out", &path(&report), &path(&out.join("toy"))]);
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(report.join("report.json")).unwrap()).unwrap();
+        assert_eq!(json["leaderboard"]["scenarios"], serde_json::json!([toy]), "{}", json["leaderboard"]);
+        let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+        assert!(md.contains(toy), "{md}");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("toy/summary.json")).unwrap()).unwrap();
+        let cells = summary["cells"].as_array().unwrap();
+        assert_eq!(cells.len(), 3);
+        assert!(cells.iter().all(|c| c["scenario"] == toy && c["success"]["estimate"] == 1.0), "{summary}");
+        // Beside the benchmark's three: four scenarios' panels, and a
+        // paper's figures still print every text at 8 pt or more.
+        let all =
+            ["eval", "--base-url", &base_url, "--model", "expert", "--scenario", "all", "--tier", "all", "-n", "2"];
+        negotiator(&[&all[..], &["--output", &path(&out), "--run-name", "all", "--quiet"]].concat());
+        let paper = root.join("paper");
+        negotiator(&["report", "--quiet", "--style", "paper", "--out", &path(&paper), &path(&out.join("all"))]);
+        let mut figures = 0;
+        for entry in std::fs::read_dir(paper.join("plots")).unwrap() {
+            let file = entry.unwrap().path();
+            if file.extension().is_none_or(|e| e != "svg") {
+                continue;
+            }
+            let svg = std::fs::read_to_string(&file).unwrap();
+            let attr = |name: &str| {
+                let at = svg.find(&format!(" {name}=\"")).unwrap() + name.len() + 3;
+                svg[at..at + svg[at..].find('"').unwrap()].to_string()
+            };
+            let inches: f64 = attr("width").trim_end_matches("in").parse().unwrap();
+            let view_w: f64 = attr("viewBox").split(' ').nth(2).unwrap().parse().unwrap();
+            let smallest = svg
+                .split(" font-size=\"")
+                .skip(1)
+                .map(|s| s[..s.find('"').unwrap()].parse::<f64>().unwrap())
+                .fold(f64::INFINITY, f64::min);
+            let pt = smallest * inches * 72.0 / view_w;
+            assert!(pt >= crate::report::plots::style::MIN_PRINT_PT - 1e-9, "{}: {pt:.2} pt", file.display());
+            figures += 1;
+        }
+        assert!(figures >= 8, "{figures} figures");
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+}

@@ -20,9 +20,11 @@ pub struct ReportArgs {
     /// Runs of one configuration (shards) are joined.
     #[arg(value_name = "RUN_DIR|LOG", required = true)]
     pub runs: Vec<PathBuf>,
-    /// Directory holding the reference baselines.csv (expert ceiling,
-    /// always_proceed floor). Without the flag and without the default
-    /// directory, the references are computed in-process.
+    /// Directory holding the reference tables (expert ceiling,
+    /// always_proceed floor): each scenario's <scenario>.csv, or a whole
+    /// grid's baselines.csv. A scenario without one, or every scenario
+    /// without the flag and without the default directory, is computed
+    /// in-process.
     #[arg(long, value_name = "DIR")]
     pub baselines: Option<PathBuf>,
     /// Output directory for report.html, report.md, report.json, the CSV

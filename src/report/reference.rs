@@ -80,35 +80,71 @@ fn mean_over(tiers: &[Tier], value: impl Fn(Tier) -> Option<f64>) -> Option<f64>
     (!xs.is_empty()).then(|| xs.iter().sum::<f64>() / xs.len() as f64)
 }
 
-/// Read `dir/baselines.csv`. `explicit`: the directory was given with
-/// `--baselines` (then its absence is an error; otherwise the references
-/// are computed in-process).
+/// Read the reference cells in `dir`: each scenario's own table
+/// (`<scenario>.csv`, as the committed ones are kept, each written by
+/// `negotiator baselines --scenario <scenario> --format csv`) and a whole
+/// grid's `baselines.csv` (as `negotiator baselines --format csv` writes
+/// it), a scenario's own table first. A scenario no table covers is run
+/// in-process (a new scenario before its table is committed), and the
+/// source says so. `explicit`: the directory was given with `--baselines`;
+/// then a directory without any table is an error (otherwise everything is
+/// computed in-process).
 pub(crate) fn load(dir: &Path, explicit: bool) -> Result<References, ReportError> {
-    let path = dir.join("baselines.csv");
-    let bad = |message: String| ReportError::Baselines { path: path.display().to_string(), message };
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound && !explicit => return Ok(compute()),
-        Err(e) => return Err(bad(e.to_string())),
-    };
-    let mut reader = csv::Reader::from_reader(text.as_bytes());
-    let mut cells = Vec::new();
-    for (i, row) in reader.deserialize::<ReferenceCell>().enumerate() {
-        let cell = row.map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
-        if [CEILING, FLOOR].contains(&cell.policy.as_str()) {
-            cells.push(cell);
+    let mut files: Vec<std::path::PathBuf> = ScenarioKind::ALL.iter().map(|k| dir.join(format!("{k}.csv"))).collect();
+    files.push(dir.join("baselines.csv"));
+    let mut cells: Vec<ReferenceCell> = Vec::new();
+    let mut sources = Vec::new();
+    for path in files {
+        let bad = |message: String| ReportError::Baselines { path: path.display().to_string(), message };
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(bad(e.to_string())),
+        };
+        let mut reader = csv::Reader::from_reader(text.as_bytes());
+        let mut references = 0;
+        for (i, row) in reader.deserialize::<ReferenceCell>().enumerate() {
+            let cell = row.map_err(|e| bad(format!("row {}: {e}", i + 1)))?;
+            if ![CEILING, FLOOR].contains(&cell.policy.as_str()) {
+                continue;
+            }
+            references += 1;
+            let key = (cell.scenario, cell.tier, cell.policy.as_str());
+            if !cells.iter().any(|c| (c.scenario, c.tier, c.policy.as_str()) == key) {
+                cells.push(cell);
+            }
         }
+        if references == 0 {
+            return Err(bad(format!("no '{CEILING}' or '{FLOOR}' rows")));
+        }
+        sources.push(path.display().to_string());
     }
-    if cells.is_empty() {
-        return Err(bad(format!("no '{CEILING}' or '{FLOOR}' rows")));
+    if sources.is_empty() {
+        if explicit {
+            let path = dir.join("<scenario>.csv or baselines.csv").display().to_string();
+            return Err(ReportError::Baselines { path, message: "no baseline table".into() });
+        }
+        return Ok(compute());
     }
-    Ok(References { source: path.display().to_string(), cells })
+    let missing: Vec<ScenarioKind> =
+        ScenarioKind::ALL.into_iter().filter(|k| !cells.iter().any(|c| c.scenario == *k)).collect();
+    if !missing.is_empty() {
+        cells.extend(compute_for(&missing).cells);
+        let names: Vec<String> = missing.iter().map(ToString::to_string).collect();
+        sources.push(format!("computed in-process for {} (no table in {})", names.join(", "), dir.display()));
+    }
+    Ok(References { source: sources.join("; "), cells })
 }
 
 /// The two reference policies on every scenario and tier, n = 200.
 pub(crate) fn compute() -> References {
+    compute_for(&ScenarioKind::ALL)
+}
+
+/// The two reference policies on `scenarios`, every tier, n = 200.
+fn compute_for(scenarios: &[ScenarioKind]) -> References {
     let spec = GridSpec {
-        scenarios: ScenarioKind::ALL.to_vec(),
+        scenarios: scenarios.to_vec(),
         tiers: Tier::ALL.to_vec(),
         policies: vec![PolicyKind::Expert, PolicyKind::AlwaysProceed],
         episodes: 200,
@@ -154,5 +190,28 @@ mod tests {
         assert!(table.success("cue_follower", ScenarioKind::YieldStandoff, &[Tier::T1]).is_none());
         assert!(load(Path::new("/nonexistent"), true).is_err());
         assert!(load(Path::new("/nonexistent"), false).unwrap().source.contains("in-process"));
+    }
+
+    /// The committed tables are one file per scenario; a scenario without
+    /// one (a new scenario) is run in-process beside them, and the source
+    /// says which.
+    #[test]
+    fn a_scenario_without_its_table_is_run_in_process_beside_the_others() {
+        let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/baselines");
+        let dir = std::env::temp_dir().join(format!("negotiator-refs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let [first, rest @ ..] = ScenarioKind::ALL;
+        // (A scenario the tests add has no committed table: in-process too.)
+        for k in rest.iter().filter(|k| committed.join(format!("{k}.csv")).exists()) {
+            std::fs::copy(committed.join(format!("{k}.csv")), dir.join(format!("{k}.csv"))).unwrap();
+        }
+        let refs = load(&dir, true).unwrap();
+        assert_eq!(refs.cells.len(), 2 * ScenarioKind::ALL.len() * Tier::ALL.len());
+        let in_process = |r: &References| r.source.split("computed in-process for ").nth(1).map(str::to_string);
+        assert!(in_process(&refs).is_some_and(|s| s.starts_with(first.name())), "{}", refs.source);
+        let whole = load(&committed, true).unwrap();
+        assert_eq!(refs.success(CEILING, first, &Tier::ALL), whole.success(CEILING, first, &Tier::ALL));
+        assert!(!in_process(&whole).is_some_and(|s| s.contains(first.name())), "{}", whole.source);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -19,10 +19,28 @@ pub mod world;
 /// pair up by name.
 macro_rules! registry {
     ($part:ident) => {
-        $part! { yield_standoff, pedestrian_feint, contested_merge }
+        crate::scenario::with_test_scenarios! { $part, yield_standoff, pedestrian_feint, contested_merge }
     };
 }
 pub(crate) use registry;
+
+/// The registry as built: the benchmark's scenarios and, in the crate's
+/// own unit tests only, `toy_crossing`, a scenario a test adds through the
+/// registry alone (its files: `toy_crossing.rs`, its TOML in
+/// `tests/fixtures/`, its expert's rules, its rules forecaster).
+#[cfg(not(test))]
+macro_rules! with_test_scenarios {
+    ($part:ident, $($name:ident),+) => {
+        $part! { $($name),+ }
+    };
+}
+#[cfg(test)]
+macro_rules! with_test_scenarios {
+    ($part:ident, $($name:ident),+) => {
+        $part! { $($name),+, toy_crossing }
+    };
+}
+pub(crate) use with_test_scenarios;
 
 /// The worlds' part of the registry: a module per scenario and
 /// [`ScenarioKind::ALL`].
@@ -347,10 +365,6 @@ impl<'de> Deserialize<'de> for Disposition {
 pub(crate) fn episode_key(kind: ScenarioKind, tier: Tier, seed: u64) -> [u64; 3] {
     [kind.rng_id(), tier.number() as u64, seed]
 }
-
-// A scenario added by a test.
-#[cfg(test)]
-mod toy;
 
 #[cfg(test)]
 mod tests {

@@ -88,6 +88,32 @@ fn generated_blocks_are_what_the_code_produces_now() {
     assert!(stale.is_empty(), "stale generated blocks (run scripts/regen_docs.sh):\n{}", stale.join("\n"));
 }
 
+/// The committed reference tables, one per scenario in
+/// `results/baselines/` (what `report` reads), are what `baselines` prints
+/// now; with `NEGOTIATOR_REGEN_DOCS=1` they are rewritten instead.
+#[test]
+fn generated_reference_tables_are_what_baselines_prints_now() {
+    let rewrite = std::env::var_os("NEGOTIATOR_REGEN_DOCS").is_some();
+    let dir = root().join("results/baselines");
+    let mut stale = Vec::new();
+    for kind in negotiator::scenario::ScenarioKind::ALL {
+        for format in ["csv", "md"] {
+            let path = dir.join(format!("{kind}.{format}"));
+            let fresh = output_of(&format!("negotiator baselines --scenario {kind} --format {format}"));
+            if std::fs::read_to_string(&path).ok().as_deref() == Some(fresh.as_str()) {
+                continue;
+            }
+            if rewrite {
+                std::fs::create_dir_all(&dir).unwrap();
+                std::fs::write(&path, fresh).unwrap();
+            } else {
+                stale.push(path.display().to_string());
+            }
+        }
+    }
+    assert!(stale.is_empty(), "stale reference tables (run scripts/regen_docs.sh):\n{}", stale.join("\n"));
+}
+
 #[test]
 fn relative_links_point_at_files_that_exist() {
     let mut broken = Vec::new();
