@@ -266,17 +266,52 @@ def test_training_and_the_hack_check_run_end_to_end(env_server: str, tmp_path: P
     for name in ["model.zip", "vecnormalize.pkl", "curve.csv", "curve.png", "command.txt"]:
         assert (out / name).is_file(), name
     assert (out / "command.txt").read_text().startswith("python -m negotiator_gym.train --scenario yield_standoff")
+    # Given a server, the check needs nothing else: no binary on PATH or in NEGOTIATOR_BIN.
+    alone = {k: v for k, v in os.environ.items() if k != "NEGOTIATOR_BIN"} | {"PATH": str(tmp_path / "empty")}
     run = subprocess.run(
         [sys.executable, "-m", "negotiator_gym.hack_check", "--checkpoint", str(out), "--scenario", "yield_standoff",
          "--tier", "1", "-n", "6", "--base-url", env_server, "--json"],
-        capture_output=True, text=True,
+        capture_output=True, text=True, env=alone,
     )  # fmt: skip
     entry = json.loads(run.stdout)
-    assert run.returncode == (0 if entry["no_hack"] and entry["reads"] else 1)
+    assert run.returncode == (0 if entry["no_hack"] and entry["reads"] else 1), run.stderr
+    # Without a server or a binary, the one-line error names this command's own flag.
+    lost = subprocess.run(
+        [sys.executable, "-m", "negotiator_gym.hack_check", "--checkpoint", str(out), "--scenario", "yield_standoff",
+         "--tier", "1"],
+        capture_output=True, text=True, env=alone,
+    )  # fmt: skip
+    assert lost.returncode != 0 and "pass --base-url URL" in lost.stderr and "-T base_url" not in lost.stderr, lost.stderr
     for key in ["success", "collision", "timeout", "decision_correctness", "hack_rate", "expert_hack_rate",
                 "masked_success", "expert_success"]:  # fmt: skip
         assert 0.0 <= entry[key] <= 1.0, key
     assert entry["n"] == 6 and entry["expert_success"] == 1.0
+
+
+def test_the_expert_reference_over_env_server_plays_evals_expert_episodes(env_server: str, tmp_path: Path) -> None:
+    """hack_check's expert reference (env-server's teacher, its moves sent
+    as they are) plays, seed for seed, the episodes `negotiator eval` plays
+    against `negotiator serve --policy expert`."""
+    from negotiator_gym.evaluate import expert_episodes
+
+    model = LocalServer(binary(), ["serve", "--policy", "expert"])
+    try:
+        for scenario in scenarios_at(env_server):
+            over_env = expert_episodes(scenario, 3, range(5), env_server)
+            out = tmp_path / scenario
+            subprocess.run(
+                [binary(), "eval", "--base-url", model.url, "--model", "expert", "--scenario", scenario, "--tier", "3",
+                 "-n", "5", "--output", str(out), "--run-name", "expert", "--quiet"],
+                check=True, capture_output=True,
+            )  # fmt: skip
+            rows = sorted((json.loads(line) for line in open(out / "expert" / "rollouts.jsonl")), key=lambda r: r["seed"])
+            assert [r["seed"] for r in rows] == list(range(5))
+            for got, want in zip(over_env, rows):
+                assert got["outcome"] == want["outcome"], scenario
+                assert got["reward"] == pytest.approx(want["reward"], abs=1e-9), scenario
+                assert got["commitment_turn"] == want["commitment_turn"], scenario
+    finally:
+        model.close()
 
 
 def test_a_teacher_labels_every_observation_and_following_it_plays_the_expert(env_server: str) -> None:

@@ -58,15 +58,18 @@ class LocalServer:
                 self.process.wait()
 
 
-def binary() -> str:
-    """The negotiator binary: NEGOTIATOR_BIN, else `negotiator` on PATH."""
+def binary(base_url_flag: str = "-T base_url=URL") -> str:
+    """The negotiator binary: NEGOTIATOR_BIN, else `negotiator` on PATH.
+    Without either, the error names `base_url_flag`: how the calling
+    command is given a server instead (Inspect's `-T base_url=URL` by
+    default)."""
     named = os.environ.get("NEGOTIATOR_BIN")
     if named:
         return named
     found = shutil.which("negotiator")
     if found is None:
         raise EnvServerError(
-            "no env-server to play on: pass -T base_url=URL, set NEGOTIATOR_BIN, or put negotiator on PATH"
+            f"no env-server to play on: pass {base_url_flag}, set NEGOTIATOR_BIN, or put negotiator on PATH"
         )
     return found
 

@@ -21,7 +21,8 @@ disposition.
 Teacher: `teacher="expert"` (any built-in policy `negotiator baselines`
 names) adds `info["teacher_action"]` to the reset's and every step's info
 but the last: the index of the discrete action nearest the move that
-policy makes on the observation returned (env-server's `teacher`). A
+policy makes on the observation returned (env-server's `teacher`), and
+`info["teacher_move"]`, the move itself, which `step_move` sends as it is. A
 built-in policy reads only the public observation, so this is the
 observation's information, interpreted; `negotiator_gym.train
 --warm-start` imitates it before PPO starts.
@@ -46,6 +47,7 @@ import numpy as np
 import orjson
 from gymnasium import spaces
 
+from negotiator.server import EnvServerError as ServerNotStarted
 from negotiator.server import LocalServer, binary
 from negotiator_gym._wire import Session
 
@@ -95,6 +97,17 @@ def refused_cell(prog: str, scenario: str, tier: int, base_url: str) -> bool:
     return False
 
 
+def local_server(prog: str) -> LocalServer:
+    """For a command line given no `--base-url`: an env-server started
+    here, or (no binary to start) the one-line error naming the flag, and
+    exit 2."""
+    try:
+        return LocalServer(binary("--base-url URL"))
+    except ServerNotStarted as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
 def fetch_metadata(base_url: str, headers: dict[str, str]) -> dict[str, Any]:
     request = urllib.request.Request(base_url + "/metadata", headers=headers)
     with urllib.request.urlopen(request, timeout=30) as answer:
@@ -112,7 +125,7 @@ class Endpoint:
     def __init__(self, base_url: str | None, token: str | None, meta: dict[str, Any] | None = None) -> None:
         self._local: LocalServer | None = None
         if base_url is None and meta is None:
-            self._local = LocalServer(binary())
+            self._local = LocalServer(binary("base_url=URL"))
             base_url = self._local.url
         self.base_url = (base_url or "").rstrip("/")
         self.headers = bearer_headers(token)
@@ -176,6 +189,14 @@ def reset_message(scenario: str, tier: int, seed: int, view: str, teacher: str |
     if teacher is not None:
         data["teacher"] = teacher
     return json.dumps({"type": "reset", "data": data})
+
+
+def teacher_move(data: dict[str, Any]) -> dict[str, Any] | None:
+    """The teacher's move itself on an answer's observation, as a step's
+    data (`maneuver`, `acceleration`); None without a teacher, and at the
+    episode's end."""
+    move = data["observation"].get("teacher")
+    return None if move is None else {"maneuver": move["maneuver"], "acceleration": move["acceleration"]}
 
 
 def teacher_action(data: dict[str, Any]) -> int | None:
@@ -279,6 +300,7 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
         info: dict[str, Any] = {"seed": self.episode_seed}
         if self.teacher is not None:
             info["teacher_action"] = teacher_action(answer)
+            info["teacher_move"] = teacher_move(answer)
         return self._observe(answer), info
 
     def step(self, action: np.int64 | int) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
@@ -303,8 +325,18 @@ class NegotiatorEnv(gym.Env[np.ndarray, np.int64]):
             info = final_info(answer, self.episode_seed)
         elif self.teacher is not None:
             info["teacher_action"] = teacher_action(answer)
+            info["teacher_move"] = teacher_move(answer)
         reward = float(answer.get("reward") or 0.0)
         return self._observe(answer), reward, done, False, info
+
+    def step_move(self, move: dict[str, Any]) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
+        """`step` with a move outside the discrete actions: a maneuver and
+        an acceleration in [-1, 1] (a teacher's `info["teacher_move"]`), as
+        env-server's step takes it."""
+        if self._done:
+            raise RuntimeError("step_move() after the episode ended: call reset()")
+        self._post_text(json.dumps({"type": "step", "data": move}))
+        return self.receive_step()
 
     def render(self) -> str | None:
         if self.render_mode == "ansi":

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import json
 import pickle
-import subprocess
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +16,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from negotiator.server import LocalServer, binary
 from negotiator_gym.env import NegotiatorEnv
 
 Policy = Callable[[np.ndarray], int]
@@ -87,30 +84,25 @@ def play(
     return episodes
 
 
-def expert_episodes(scenario: str, tier: int, seeds: Sequence[int]) -> list[dict[str, Any]]:
-    """The built-in expert on the same seeds, played by `negotiator eval`
-    against `negotiator serve --policy expert` (the Rust expert, the Rust
-    episode loop): its rollouts, in seed order."""
-    first, n = seeds[0], len(seeds)
-    if list(seeds) != list(range(first, first + n)):
-        raise ValueError("expert_episodes takes a contiguous seed range")
-    bin_path = binary()
-    model = LocalServer(bin_path, ["serve", "--policy", "expert"])
+def expert_episodes(scenario: str, tier: int, seeds: Sequence[int], base_url: str) -> list[dict[str, Any]]:
+    """The built-in expert on the same seeds, over the same env-server: its
+    teacher (the Rust expert, moving on the rounded observation the client
+    reads, as `serve --policy expert` reads the scene text) makes every
+    move, sent as it is rather than as its nearest discrete action. The
+    episodes `negotiator eval` gives against `serve --policy expert`; each
+    entry is the last step's `info`, in seed order."""
+    env = NegotiatorEnv(scenario=scenario, tier=tier, base_url=base_url, teacher="expert")
+    episodes = []
     try:
-        with tempfile.TemporaryDirectory() as out:
-            run = subprocess.run(
-                [bin_path, "eval", "--base-url", model.url, "--model", "expert", "--scenario", scenario,
-                 "--tier", str(tier), "--seed", str(first), "-n", str(n), "--output", out,
-                 "--run-name", "expert"],
-                capture_output=True, text=True,
-            )  # fmt: skip
-            if run.returncode != 0:
-                raise RuntimeError(f"negotiator eval failed: {run.stderr.strip().splitlines()[-1:]}")
-            rows = [json.loads(line) for line in open(Path(out) / "expert" / "rollouts.jsonl") if line.strip()]
+        for seed in seeds:
+            _, info = env.reset(seed=seed)
+            done = False
+            while not done:
+                _, _, done, _, info = env.step_move(info["teacher_move"])
+            episodes.append(info)
     finally:
-        model.close()
-    by_seed = {row["seed"]: row for row in rows}
-    return [by_seed[s] for s in seeds]
+        env.close()
+    return episodes
 
 
 @dataclass

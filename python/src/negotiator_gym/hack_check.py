@@ -24,8 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from negotiator.server import LocalServer, binary
-from negotiator_gym.env import TIERS, refused_cell
+from negotiator_gym.env import TIERS, local_server, refused_cell
 from negotiator_gym.evaluate import expert_episodes, load_policy, play, rates
 
 HACK_MARGIN = 0.02
@@ -54,7 +53,7 @@ def check(args: argparse.Namespace, base_url: str) -> dict[str, Any]:
     policy = load_policy(args.checkpoint)
     learner = play(policy, args.scenario, args.tier, seeds, base_url)
     masked = play(policy, args.scenario, args.tier, seeds, base_url, masked=True)
-    expert = expert_episodes(args.scenario, args.tier, seeds)
+    expert = expert_episodes(args.scenario, args.tier, seeds, base_url)
     ours, blind, theirs = rates(learner), rates(masked), rates(expert)
     paired = np.array([(a["outcome"] == "success") - (b["outcome"] == "success") for a, b in zip(learner, expert)])
     stderr = float(paired.std(ddof=1) / np.sqrt(len(paired))) if len(paired) > 1 else 0.0
@@ -84,7 +83,7 @@ def check(args: argparse.Namespace, base_url: str) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(sys.argv[1:] if argv is None else argv)
-    local = None if args.base_url else LocalServer(binary())
+    local = None if args.base_url else local_server("python -m negotiator_gym.hack_check")
     try:
         base_url = args.base_url or (local.url if local else "")
         if refused_cell("python -m negotiator_gym.hack_check", args.scenario, args.tier, base_url):

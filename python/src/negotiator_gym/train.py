@@ -33,8 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from negotiator.server import LocalServer, binary
-from negotiator_gym.env import TIERS, refused_cell
+from negotiator_gym.env import TIERS, local_server, refused_cell
 from negotiator_gym.evaluate import MODEL_FILE, NORMALIZE_FILE, play, rates
 
 CURVE_SEED = 10_000
@@ -310,7 +309,7 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "command.txt").write_text(
         "python -m negotiator_gym.train " + " ".join(shlex.quote(a) for a in argv) + "\n"
     )
-    local = None if args.base_url else LocalServer(binary())
+    local = None if args.base_url else local_server("python -m negotiator_gym.train")
     try:
         base_url = args.base_url or (local.url if local else "")
         if refused_cell("python -m negotiator_gym.train", args.scenario, args.tier, base_url):
