@@ -10,5 +10,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # The generated blocks, and one reference table per scenario (what `report`
 # reads) for every scenario the binary has.
-NEGOTIATOR_REGEN_DOCS=1 cargo test --release --quiet --test it -- docs::generated_
+NEGOTIATOR_REGEN_DOCS=1 cargo test --release --quiet --test it -- docs::generated_ picture::generated_
 git status --short README.md docs results/baselines

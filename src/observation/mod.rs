@@ -7,8 +7,8 @@ mod parse;
 mod render;
 
 pub use parse::{SceneParseError, parse_scene};
-pub(crate) use render::fixed_point;
 pub use render::render_scene;
+pub(crate) use render::{fixed_point, last_action_line, you_line};
 
 use crate::action::Action;
 use crate::scenario::ScenarioKind;

@@ -103,39 +103,42 @@ pub fn render_scene(obs: &Observation) -> String {
         obs.turn_budget,
         obs.turns_left()
     );
+    out.push_str(&you_line(obs));
+    out.push('\n');
+    for (label, track) in kind.track_labels().iter().zip(obs.scene.tracks()) {
+        track_lines(&mut out, label, track, |p, v| kind.track_now(p, v));
+    }
+    out.push_str(&last_action_line(obs));
+    out.push('\n');
+    out
+}
+
+/// The scene's "You:" line (without its newline): what the picture's
+/// legend says too, word for word.
+pub(crate) fn you_line(obs: &Observation) -> String {
     let e = &obs.ego;
     let place = obs.scene.place_text(f1);
-    let _ = write!(
-        out,
+    let mut line = format!(
         "You: speed {} m/s, acceleration {} m/s^2, {place}, {} m to your goal, speed limit {} m/s",
         Fixed(e.speed_mps, 1),
         Fixed(e.accel_mps2, 1),
         Fixed(e.to_goal_m, 1),
         Fixed(e.speed_limit_mps, 1)
     );
-    match e.speed_limit_ahead_mps {
-        Some(ahead) => {
-            let _ = writeln!(out, " ({} m/s on the road you join)", Fixed(ahead, 1));
-        }
-        None => out.push('\n'),
+    if let Some(ahead) = e.speed_limit_ahead_mps {
+        let _ = write!(line, " ({} m/s on the road you join)", Fixed(ahead, 1));
     }
-    for (label, track) in kind.track_labels().iter().zip(obs.scene.tracks()) {
-        track_lines(&mut out, label, track, |p, v| kind.track_now(p, v));
-    }
+    line
+}
+
+/// The scene's last-action line (without its newline).
+pub(crate) fn last_action_line(obs: &Observation) -> String {
     match obs.last_action {
         Some(a) => {
-            let _ = writeln!(
-                out,
-                "Your last action: {}, acceleration {}",
-                a.maneuver,
-                Fixed(a.acceleration.clamp(-1.0, 1.0), 2)
-            );
+            format!("Your last action: {}, acceleration {}", a.maneuver, Fixed(a.acceleration.clamp(-1.0, 1.0), 2))
         }
-        None => {
-            let _ = writeln!(out, "Your last action: none (first turn)");
-        }
+        None => "Your last action: none (first turn)".to_string(),
     }
-    out
 }
 
 #[cfg(test)]

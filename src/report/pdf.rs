@@ -1,35 +1,9 @@
 //! A figure's PDF (paper style): the SVG parsed by `usvg` and written by
-//! `svg2pdf`, the text set in a font compiled into the binary, so the PDF
-//! is the same on every machine and never depends on the fonts installed
-//! (with none installed, `usvg` would drop every text).
-//!
-//! The font is a subset of Liberation Sans 2.1.5 (SIL Open Font License;
-//! metric-compatible with Arial and Helvetica, which the figures name and
-//! lay out for), renamed "Figure Sans" as the license asks of modified
-//! fonts: `assets/fonts/`, about 24 KB per weight.
+//! `svg2pdf`, the text set in the font compiled into the binary
+//! (`crate::fonts`), so the PDF is the same on every machine.
 
-use std::sync::{Arc, OnceLock};
+use crate::fonts::database as fonts;
 use svg2pdf::usvg;
-
-const REGULAR: &[u8] = include_bytes!("../../assets/fonts/FigureSans-Regular.ttf");
-const BOLD: &[u8] = include_bytes!("../../assets/fonts/FigureSans-Bold.ttf");
-/// The bundled font's family name; every sans-serif text resolves to it.
-pub(crate) const FAMILY: &str = "Figure Sans";
-
-/// The fonts the PDFs are set in: the bundled ones and nothing else.
-fn fonts() -> Arc<usvg::fontdb::Database> {
-    static DB: OnceLock<Arc<usvg::fontdb::Database>> = OnceLock::new();
-    DB.get_or_init(|| {
-        let mut db = usvg::fontdb::Database::new();
-        db.load_font_data(REGULAR.to_vec());
-        db.load_font_data(BOLD.to_vec());
-        // "Helvetica, Arial, sans-serif": the first two are not in the
-        // database, so the generic family decides.
-        db.set_sans_serif_family(FAMILY);
-        Arc::new(db)
-    })
-    .clone()
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum PdfError {
@@ -157,7 +131,8 @@ mod tests {
         let text = String::from_utf8_lossy(&pdf);
         assert!(text.contains("FigureSans-Regular") && text.contains("FigureSans-Bold"), "fonts not embedded");
         // Without any font the text would be dropped: the PDF would hold no font at all.
-        let bare = usvg::Options { fontdb: Arc::new(usvg::fontdb::Database::new()), ..usvg::Options::default() };
+        let bare =
+            usvg::Options { fontdb: std::sync::Arc::new(usvg::fontdb::Database::new()), ..usvg::Options::default() };
         let tree = usvg::Tree::from_str(svg, &bare).unwrap();
         let empty =
             svg2pdf::to_pdf(&tree, svg2pdf::ConversionOptions::default(), svg2pdf::PageOptions { dpi: 96.0 }).unwrap();

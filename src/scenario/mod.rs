@@ -12,8 +12,9 @@ pub mod world;
 /// them. Each name is a scenario's own files: its world
 /// (`src/scenario/<name>.rs`, with its parameter file
 /// `scenarios/<name>.toml`), its expert's rules
-/// (`src/policy/expert/<name>.rs`) and its rules forecaster
-/// (`src/forecast/rules/<name>.rs`). Each of those modules expands this
+/// (`src/policy/expert/<name>.rs`), its rules forecaster
+/// (`src/forecast/rules/<name>.rs`) and its picture
+/// (`src/picture/<name>.rs`). Each of those modules expands this
 /// list into its own part (`registry!(a_macro_of_its_own)`), so that a
 /// scenario without one of its parts does not compile, and the parts
 /// pair up by name.
@@ -27,7 +28,8 @@ pub(crate) use registry;
 /// The registry as built: the benchmark's scenarios and, in the crate's
 /// own unit tests only, `toy_crossing`, a scenario a test adds through the
 /// registry alone (its files: `toy_crossing.rs`, its TOML in
-/// `tests/fixtures/`, its expert's rules, its rules forecaster).
+/// `tests/fixtures/`, its expert's rules, its rules forecaster, its
+/// picture).
 #[cfg(not(test))]
 macro_rules! with_test_scenarios {
     ($part:ident, $($name:ident),+) => {

@@ -1,8 +1,9 @@
 //! A toy scenario the crate's unit tests add through the registry alone
 //! (`scenario::with_test_scenarios`): this file, its TOML
 //! (`tests/fixtures/toy_crossing.toml`), its expert's rules
-//! (`policy/expert/toy_crossing.rs`) and its rules forecaster
-//! (`forecast/rules/toy_crossing.rs`). One car on a crossing road either
+//! (`policy/expert/toy_crossing.rs`), its rules forecaster
+//! (`forecast/rules/toy_crossing.rs`) and its picture
+//! (`picture/toy_crossing.rs`). One car on a crossing road either
 //! drives through (`committed`) or stops at its line and waits for the ego
 //! (`yielder`).
 //! It shows that the episode loop, the scene text, the scene's JSON, the

@@ -10,6 +10,7 @@ mod faults;
 mod forecast;
 mod inspect;
 mod layers;
+mod picture;
 mod play;
 mod providers;
 mod report;
