@@ -1,6 +1,6 @@
 //! The scene as a picture: a bird's-eye view of one decision, for a
-//! vision-language model (`eval --observation image|both`), drawn from the
-//! public observation only, as the text is, and from the figures as the
+//! vision-language model (docs/vision.md), drawn from the public
+//! observation only, as the text is, and from the figures as the
 //! text prints them: nothing it shows depends on the hidden disposition
 //! before the motion shows it.
 //!
