@@ -165,7 +165,7 @@ fn compute_for(scenarios: &[ScenarioKind]) -> References {
             evidence_lag: Some(c.evidence_lag.estimate).filter(|x| x.is_finite()),
         })
         .collect();
-    References { source: "computed in-process (built-in scenarios, n = 200; no baselines.csv found)".into(), cells }
+    References { source: "computed in-process (built-in scenarios, n = 200; no baseline table found)".into(), cells }
 }
 
 #[cfg(test)]
