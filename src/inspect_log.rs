@@ -96,6 +96,7 @@ pub fn read(path: &Path) -> Result<Imported, InspectLogError> {
         endpoint: if endpoint.is_empty() { format!("inspect:{}", spec.model) } else { endpoint.clone() },
         probe: crate::probe::Probe::NONE,
         human: None,
+        pictures: None,
     };
     for sample in &samples {
         let key = sample.key().map_err(|m| sample_err(sample, m))?;
@@ -271,6 +272,8 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
             tokens: tokens.unwrap_or(0),
             tokens_estimated: tokens.is_none(),
             reply_capped: false,
+            pictures: 0,
+            image_tokens: 0,
             latency_ms: call.and_then(|c| c.output.time).map_or(0, |t| (t * 1e3).round() as u64),
             attempts: 1,
             after_resolution: false,

@@ -1,7 +1,7 @@
 //! The instructions every front end gives a player: the system prompt
 //! `eval` sends a model, env-server's first observation carries, `play`
-//! shows a person on its help screen and the belief probe extends. One
-//! text, one home, below the front ends.
+//! shows a person on its help screen and the probes and pictures extend
+//! ([`system_prompt`]). One text, one home, below the front ends.
 //!
 //! It explains the task, the answer format and the controller mapping of
 //! [`crate::action::Action::control`]. It says nothing about the other road
@@ -32,3 +32,28 @@ how strongly, linearly inside that maneuver's band (a = |acceleration|):
 The sign of acceleration does not matter, and steering is ignored (you stay on your path). \
 Each answer is held for 0.5 s, then you get the next scene. An answer that cannot be read as \
 this JSON object is executed as a firm stop.";
+
+/// The system prompt of one episode: [`SYSTEM_PROMPT`], plus each probe's
+/// paragraph for its scenario (the belief question, then the forecast's),
+/// then, for a scene shown as a picture, what the picture shows (the one
+/// composition every front end uses).
+pub fn system_prompt(
+    probe: crate::probe::Probe,
+    kind: crate::scenario::ScenarioKind,
+    observation: crate::rundir::ObservationMode,
+) -> String {
+    use crate::rundir::ObservationMode;
+    let mut prompt = SYSTEM_PROMPT.to_string();
+    if probe.belief {
+        prompt.push_str(&crate::belief::prompt_paragraph(kind));
+    }
+    if probe.forecast {
+        prompt.push_str(&crate::forecast::prompt_paragraph(kind));
+    }
+    match observation {
+        ObservationMode::Text => {}
+        ObservationMode::Image => prompt.push_str(&crate::picture::prompt_paragraph(kind, false)),
+        ObservationMode::Both => prompt.push_str(&crate::picture::prompt_paragraph(kind, true)),
+    }
+    prompt
+}

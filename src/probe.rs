@@ -68,20 +68,6 @@ impl<'de> serde::Deserialize<'de> for Probe {
     }
 }
 
-/// The system prompt of one episode: the instructions every front end
-/// sends, plus each probe's paragraph for its scenario (the belief
-/// question, then the forecast's).
-pub fn system_prompt(probe: Probe, kind: crate::scenario::ScenarioKind) -> String {
-    let mut prompt = crate::instructions::SYSTEM_PROMPT.to_string();
-    if probe.belief {
-        prompt.push_str(&crate::belief::prompt_paragraph(kind));
-    }
-    if probe.forecast {
-        prompt.push_str(&crate::forecast::prompt_paragraph(kind));
-    }
-    prompt
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,8 +18,15 @@
 //! environment client forwards it) is read too: the scene is the last
 //! string inside it that holds one.
 //!
+//! A conversation that shows the scene as a picture (`eval --observation
+//! image`: an `image_url` content part and one line) is answered from the
+//! episode found behind it ([`pictured`]): the pictures are matched as
+//! bytes against the simulator's own, never read.
+//!
 //! Token counts in `usage` are estimates: request body bytes / 4 for the
-//! prompt, reply bytes / 4 for the completion.
+//! prompt (a picture's data URL left out, and the picture counted as
+//! OpenAI counts it: 85 tokens at detail low, 255 otherwise), reply bytes
+//! / 4 for the completion.
 //!
 //! Fault injection is decided per request, in arrival order: request i
 //! (counting every chat request) draws from a stream seeded by (seed, i), so
@@ -33,6 +40,8 @@
 //! is not a valid action (prose, cut-off JSON with `finish_reason: length`,
 //! null content, an unknown maneuver, an out-of-range number, an unclosed
 //! `<think>`): driving on a parse error, not an infrastructure failure.
+
+mod pictured;
 
 use crate::episode::Episode;
 use crate::hash::{fnv1a64, splitmix64, unit_f64};
@@ -55,6 +64,9 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant, SystemTime};
 
+/// The largest request body taken (OpenAI takes 50 MB of pictures per request).
+const MAX_BODY_BYTES: usize = 64 << 20;
+
 /// Server settings.
 #[derive(Debug, Clone)]
 pub(crate) struct ServeConfig {
@@ -71,6 +83,9 @@ pub(crate) struct ServeConfig {
     /// `--probe forecast`: add this forecaster's forecast of the last
     /// scene to every answer (it reads only the scene text).
     pub(crate) forecast: Option<crate::forecast::ForecasterKind>,
+    /// The seeds whose episodes a conversation may be found among (the
+    /// belief probe's text index, and every conversation of pictures).
+    pub(crate) probe_seeds: std::ops::Range<u64>,
 }
 
 /// Counts of what was served (for the shutdown line and tests).
@@ -96,6 +111,8 @@ struct Bucket {
 pub(crate) struct ServeState {
     config: ServeConfig,
     pub(crate) stats: ServeStats,
+    /// Finds the episode behind a conversation of pictures.
+    pictures: pictured::PictureIndex,
     bucket: Option<Mutex<Bucket>>,
     created: u64,
 }
@@ -104,7 +121,8 @@ impl ServeState {
     pub(crate) fn new(config: ServeConfig) -> ServeState {
         let bucket = config.rate_limit.map(|rps| Mutex::new(Bucket { tokens: rps.max(1.0), last: Instant::now() }));
         let created = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-        ServeState { config, stats: ServeStats::default(), bucket, created }
+        let pictures = pictured::PictureIndex::new(config.probe_seeds.clone());
+        ServeState { config, stats: ServeStats::default(), pictures, bucket, created }
     }
 
     /// Take a token, or say how long until one is available.
@@ -126,7 +144,12 @@ impl ServeState {
 
 /// The routes: `POST /v1/chat/completions`, `GET /v1/models`.
 pub(crate) fn router(state: Arc<ServeState>) -> Router {
-    Router::new().route("/v1/chat/completions", post(chat)).route("/v1/models", get(models)).with_state(state)
+    // A conversation of pictures is a few MB (axum's default limit is 2 MB).
+    Router::new()
+        .route("/v1/chat/completions", post(chat))
+        .route("/v1/models", get(models))
+        .layer(axum::extract::DefaultBodyLimit::max(MAX_BODY_BYTES))
+        .with_state(state)
 }
 
 /// Independent uniform draws for request `i`: draw `k` of stream (seed, i).
@@ -289,6 +312,22 @@ impl EpisodeIndex {
     }
 }
 
+/// The pictures of a message's content parts, as (data URL, detail)
+/// (OpenAI's `{"type": "image_url", "image_url": {"url": ..., "detail":
+/// ...}}`, or the URL as a string, which some clients send).
+fn content_pictures(v: &Value) -> impl Iterator<Item = (&str, Option<&str>)> {
+    v.as_array().into_iter().flatten().filter_map(|p| {
+        let url = p.get("image_url")?;
+        let detail = url.get("detail").and_then(Value::as_str);
+        url.get("url").and_then(Value::as_str).or_else(|| url.as_str()).map(|u| (u, detail))
+    })
+}
+
+/// A message's last picture, as its data URL.
+fn content_picture(v: &Value) -> Option<&str> {
+    content_pictures(v).last().map(|(url, _)| url)
+}
+
 /// The answer to a whole conversation: the policy's action for the last
 /// scene, with its belief added when probing.
 fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRead) {
@@ -296,12 +335,35 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     let text = |role: &str| -> Vec<String> {
         messages.iter().filter(|m| m.role == role).filter_map(|m| content_text(&m.content)).collect()
     };
+    let users: Vec<&MessageIn> = messages.iter().filter(|m| m.role == "user").collect();
+    let replies = text("assistant");
+    let pictured = users.iter().any(|m| content_picture(&m.content).is_some());
     // Only user messages carry scenes; a scene wrapped in JSON is unwrapped.
-    let scenes: Vec<String> = text("user").into_iter().map(|t| scene_inside(&t).unwrap_or(t)).collect();
+    let mut scenes: Vec<String> = text("user").into_iter().map(|t| scene_inside(&t).unwrap_or(t)).collect();
+    let mut found_belief = None;
+    if pictured && scenes.last().is_none_or(|s| parse_scene(s).is_err()) {
+        // The scene is a picture: find its episode, and answer from the
+        // texts its pictures were drawn from.
+        let turns: Vec<pictured::UserTurn> = users
+            .iter()
+            .map(|m| pictured::UserTurn { picture: content_picture(&m.content).map(pictured::picture_hash) })
+            .collect();
+        match state.pictures.find(&turns, &replies.iter().map(String::as_str).collect::<Vec<_>>()) {
+            Some(found) => {
+                scenes = found.scenes;
+                found_belief = Some(found.ideal_belief);
+            }
+            None => {
+                state.stats.unidentified_episodes.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
     let scene = scenes.last().map_or("", String::as_str);
     let earlier: Vec<&str> = scenes[..scenes.len().saturating_sub(1)].iter().map(String::as_str).collect();
     let ideal = cfg.belief.as_ref().and_then(|index| {
-        let replies = text("assistant");
+        if pictured {
+            return found_belief;
+        }
         let ideal = index.ideal_belief(
             &scenes.iter().map(String::as_str).collect::<Vec<_>>(),
             &replies.iter().map(String::as_str).collect::<Vec<_>>(),
@@ -340,16 +402,17 @@ pub(crate) fn garbage(k: u64) -> (Option<String>, &'static str) {
     }
 }
 
-fn completion(
-    state: &ServeState,
-    id: u64,
-    model: &str,
-    content: Option<String>,
-    finish: &str,
-    prompt_bytes: usize,
-) -> Value {
+/// What a request's prompt tokens are estimated from: its bytes, less
+/// its pictures' data URLs, and the pictures' own tokens.
+#[derive(Clone, Copy)]
+struct Usage {
+    picture_tokens: u64,
+    text_bytes: usize,
+}
+
+fn completion(state: &ServeState, id: u64, model: &str, content: Option<String>, finish: &str, prompt: Usage) -> Value {
     let completion_tokens = content.as_ref().map_or(0, |c| c.len().div_ceil(4)) as u64;
-    let prompt_tokens = prompt_bytes.div_ceil(4) as u64;
+    let prompt_tokens = prompt.text_bytes.div_ceil(4) as u64 + prompt.picture_tokens;
     json!({
         "id": format!("chatcmpl-{id:016x}"),
         "object": "chat.completion",
@@ -403,17 +466,29 @@ async fn chat(State(state): State<Arc<ServeState>>, body: Bytes) -> Response {
                 .into_response(),
         };
     }
+    let mut prompt = Usage { picture_tokens: 0, text_bytes: body.len() };
     let (content, finish) = if draw(cfg.seed, i, 4) < cfg.garbage_rate {
         state.stats.garbage.fetch_add(1, Ordering::Relaxed);
         garbage(splitmix64(cfg.seed ^ i))
     } else {
-        let (content, scene) = reply_content(&state, &request.messages);
+        // Finding a pictured conversation's episode may draw pictures:
+        // off the async workers.
+        let answering = Arc::clone(&state);
+        let pictures: Vec<(&str, Option<&str>)> =
+            request.messages.iter().flat_map(|m| content_pictures(&m.content)).collect();
+        let (picture_tokens, picture_bytes) = pictured::picture_usage(&pictures);
+        prompt = Usage { picture_tokens, text_bytes: body.len() - picture_bytes };
+        let messages = request.messages;
+        let Ok((content, scene)) = tokio::task::spawn_blocking(move || reply_content(&answering, &messages)).await
+        else {
+            return error_response(StatusCode::INTERNAL_SERVER_ERROR, "server_error", "the answer could not be made");
+        };
         if scene == SceneRead::Unreadable {
             state.stats.unparseable_scenes.fetch_add(1, Ordering::Relaxed);
         }
         (Some(content), "stop")
     };
-    let reply = completion(&state, i, &model, content, finish, body.len());
+    let reply = completion(&state, i, &model, content, finish, prompt);
     let (reply, content_type) = if request.stream {
         let usage = request.stream_options.as_ref().is_some_and(|o| o.include_usage);
         (stream_events(&reply, usage), "text/event-stream")
@@ -493,6 +568,7 @@ mod tests {
             garbage_rate: 0.0,
             belief: None,
             forecast: None,
+            probe_seeds: 0..1,
         });
         assert!(s.rate_limit().is_ok());
         assert!(s.rate_limit().is_ok());

@@ -19,7 +19,9 @@ use crate::llm::profile::{BuiltParams, RequestProfile, build_params};
 use crate::llm::{ClientConfig, RetryPolicy};
 use crate::probe::Probe;
 use crate::rundir::sanitize_name;
-use crate::rundir::{HistoryWindow, Pricing, RunConfig, Selection, Shard};
+use crate::rundir::{
+    HistoryWindow, ImageDetail, ObservationMode, PictureSettings, Pricing, RunConfig, Selection, Shard,
+};
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use reqwest::header::{HeaderMap, HeaderName, HeaderValue};
 use serde_json::{Map, Value};
@@ -103,6 +105,21 @@ pub struct EvalArgs {
     /// run (and leaderboard row); the action is scored as without it.
     #[arg(long, default_value = "none", value_parser = parse_probe)]
     pub probe: Probe,
+    /// What each user turn shows: text (the scene text), image (a 512 x 512
+    /// bird's-eye picture of the scene and one line naming the turn) or
+    /// both (the picture beside the text). A picture run is its own run
+    /// (and leaderboard row); the endpoint must take images (exit 3 if not).
+    #[arg(long, value_enum, default_value_t = ObservationMode::Text)]
+    pub observation: ObservationMode,
+    /// The pictures' `detail` (OpenAI's low is 85 tokens, high 255 for this
+    /// size; other providers ignore it).
+    #[arg(long, value_enum, default_value_t = ImageDetail::Auto)]
+    pub image_detail: ImageDetail,
+    /// Keep pictures only in the last K user turns (the current one
+    /// included), to bound cost; older turns carry a one-line stand-in (or
+    /// their text under `both`). Default: every turn keeps its picture.
+    #[arg(long, value_name = "K")]
+    pub image_history: Option<u32>,
     /// Ask for a response format: json_object (or text).
     #[arg(long, value_parser = ["json_object", "text"])]
     pub response_format: Option<String>,
@@ -235,15 +252,17 @@ impl EvalArgs {
         let scenario_set = ScenarioSet::with_overrides(&self.scenario_files)?;
         let pricing = self.prices()?.lookup(&target.base_url, &target.model);
         let max_cost_usd = self.max_cost_checked(pricing.as_ref(), &target)?;
+        let pictures = self.pictures()?;
         let config = RunConfig {
             model: target.model,
             request_params: built.params,
             history,
-            prompt_hash: crate::eval::prompt::prompt_hash(self.probe),
+            prompt_hash: crate::eval::prompt::prompt_hash(self.probe, self.observation),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: crate::redact::url_without_userinfo(&target.base_url),
             probe: self.probe,
             human: None,
+            pictures,
         };
         let run_name = self.run_name(&config)?;
         let retry = RetryPolicy {
@@ -465,6 +484,27 @@ impl EvalArgs {
         Ok((selection, source))
     }
 
+    /// `--observation`, `--image-detail` and `--image-history` as the run's
+    /// picture settings (none for a text run, which takes neither flag).
+    fn pictures(&self) -> anyhow::Result<Option<PictureSettings>> {
+        if self.observation == ObservationMode::Text {
+            if self.image_history.is_some() || self.image_detail != ImageDetail::Auto {
+                return Err(usage(
+                    "--image-detail and --image-history apply to pictures: add --observation image or --observation both",
+                ));
+            }
+            return Ok(None);
+        }
+        if self.image_history == Some(0) {
+            return Err(usage("--image-history: must be at least 1 (the current turn's picture)"));
+        }
+        Ok(Some(PictureSettings {
+            observation: self.observation,
+            detail: self.image_detail,
+            history: self.image_history,
+        }))
+    }
+
     /// `--max-reply-bytes`, between 1 KiB and 64 MiB.
     fn max_reply_bytes_checked(&self) -> anyhow::Result<usize> {
         let n = self.max_reply_bytes;
@@ -566,7 +606,8 @@ impl EvalArgs {
         crate::redact::term::out(&crate::eval::plan::render(&plan, options));
         if let Some(request) = crate::eval::plan::first_request(options, &finished) {
             crate::redact::term::out(&format!(
-                "\nfirst request (exactly as it would be sent; secrets redacted):\n{request}"
+                "\nfirst request (exactly as it would be sent; secrets redacted{}):\n{request}",
+                if options.config.pictures.is_some() { ", each picture's base64 shortened to its length" } else { "" }
             ));
         }
         Ok(ExitCode::SUCCESS)

@@ -243,6 +243,7 @@ mod a_scenario_added_through_the_registry {
             garbage_rate: 0.0,
             belief: None,
             forecast: None,
+            probe_seeds: 0..10,
         };
         std::thread::spawn(move || {
             let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();

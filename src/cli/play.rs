@@ -84,11 +84,15 @@ impl PlayArgs {
             model: format!("human:{name}"),
             request_params: Default::default(),
             history: HistoryWindow::Full,
-            prompt_hash: crate::eval::prompt::prompt_hash(crate::probe::Probe::NONE),
+            prompt_hash: crate::eval::prompt::prompt_hash(
+                crate::probe::Probe::NONE,
+                crate::rundir::ObservationMode::Text,
+            ),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: "terminal".to_string(),
             probe: crate::probe::Probe::NONE,
             human: Some(HumanSettings { turn_seconds: self.turn_seconds, view: self.view.clone(), feedback }),
+            pictures: None,
         };
         let run_dir = if self.practice {
             std::env::temp_dir().join(format!("negotiator-practice-{}", std::process::id()))

@@ -50,10 +50,12 @@ pub struct ServeArgs {
     /// scene text.
     #[arg(long, default_value = "none", value_parser = parse_probe)]
     pub probe: Probe,
-    /// Seeds A..B (B excluded) whose episodes the belief probe can find
-    /// behind a conversation (built-in scenario parameters, every scenario
-    /// and tier); a conversation outside them gets the belief 0.5 from the
-    /// expert and is counted as unidentified.
+    /// Seeds A..B (B excluded) whose episodes the belief probe, and every
+    /// conversation of pictures (`eval --observation image`), can be found
+    /// among (built-in scenario parameters, every scenario and tier). A
+    /// conversation outside them is counted as unidentified: the expert
+    /// states the belief 0.5, and a picture-only scene gets the
+    /// conservative stop. Pictures are found by their bytes, never read.
     #[arg(long, default_value = "0..1000", value_parser = parse_seed_range)]
     pub probe_seeds: std::ops::Range<u64>,
     /// Who answers `--probe forecast`: the rules forecaster, or constant
@@ -119,6 +121,7 @@ impl ServeArgs {
                 .belief
                 .then(|| std::sync::Arc::new(crate::serve::EpisodeIndex::build(self.probe_seeds.clone()))),
             forecast: self.probe.forecast.then_some(self.forecaster),
+            probe_seeds: self.probe_seeds.clone(),
         };
         crate::redact::eline!(
             "serving policy '{policy}' (fail {} | drop {} | garbage {} | rate limit {} | latency {} ms | seed {})",

@@ -58,7 +58,8 @@ fn summary(errors: &[FieldError]) -> String {
 /// Which forms of the observation a session's observations carry. Every
 /// form holds the same information; a client takes the one it reads (an
 /// LLM harness that forwards the whole observation to the model wants
-/// `text` alone; a network wants `features`), and the messages shrink.
+/// `text` alone, a vision-language harness `image`; a network wants
+/// `features`), and the messages shrink.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum View {
     /// `instructions`, `scene`, `public` and `features`.
@@ -69,10 +70,15 @@ pub(crate) enum View {
     Public,
     /// `features`.
     Features,
+    /// `instructions`, `image` (the scene's picture) and `scene` as the one
+    /// line sent with it (`eval --observation image`).
+    Image,
+    /// `instructions`, `image` and `scene` (`eval --observation both`).
+    Both,
 }
 
 impl View {
-    pub const NAMES: [&str; 4] = ["full", "text", "public", "features"];
+    pub const NAMES: [&str; 6] = ["full", "text", "public", "features", "image", "both"];
 
     fn parse(s: &str) -> Option<View> {
         Some(match s {
@@ -80,12 +86,14 @@ impl View {
             "text" => View::Text,
             "public" => View::Public,
             "features" => View::Features,
+            "image" => View::Image,
+            "both" => View::Both,
             _ => return None,
         })
     }
 
     fn text(self) -> bool {
-        matches!(self, View::Full | View::Text)
+        matches!(self, View::Full | View::Text | View::Image | View::Both)
     }
 
     fn public(self) -> bool {
@@ -94,6 +102,15 @@ impl View {
 
     fn features(self) -> bool {
         matches!(self, View::Full | View::Features)
+    }
+
+    /// What a model is shown each turn, as `eval --observation` names it.
+    fn observation(self) -> crate::rundir::ObservationMode {
+        match self {
+            View::Image => crate::rundir::ObservationMode::Image,
+            View::Both => crate::rundir::ObservationMode::Both,
+            _ => crate::rundir::ObservationMode::Text,
+        }
     }
 }
 
@@ -297,8 +314,15 @@ pub(crate) struct EnvObservation {
     /// This turn's scene text, exactly the user message `eval` sends (the
     /// prompt `eval` renders is `instructions` as the system message, then
     /// one scene per turn). Views `full` and `text`.
+    /// Under view `image`, the one line `eval --observation image` sends
+    /// with the picture instead.
     #[serde(skip_serializing_if = "Option::is_none", serialize_with = "super::wire::text")]
     pub scene: Option<String>,
+    /// This turn's bird's-eye picture of the scene, a 512 x 512 PNG in
+    /// base64: exactly the picture `eval --observation image|both` sends
+    /// (docs/vision.md). Views `image` and `both`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
     /// The public observation as structured values, rounded to the
     /// precision the scene text prints (the same information). Views
     /// `full` and `public`.
@@ -533,6 +557,13 @@ impl Session {
     }
 }
 
+/// The picture of `o` as base64 PNG (empty if it cannot be drawn, which a
+/// registered scenario never is).
+fn picture_base64(o: &Observation) -> String {
+    use base64::Engine;
+    crate::picture::png(o).map(|png| base64::engine::general_purpose::STANDARD.encode(png)).unwrap_or_default()
+}
+
 /// What the client sees of the episode now.
 fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservation {
     let o = live.episode.observation();
@@ -543,9 +574,13 @@ fn observe(live: &Live, first: bool, parse_errors: Vec<String>) -> EnvObservatio
     EnvObservation {
         instructions: (first && view.text()).then(|| {
             let probe = crate::probe::Probe { forecast: live.forecasts.is_some(), ..Default::default() };
-            crate::probe::system_prompt(probe, spec.scenario)
+            crate::instructions::system_prompt(probe, spec.scenario, view.observation())
         }),
-        scene: view.text().then(|| render_scene(o)),
+        scene: view.text().then(|| match view {
+            View::Image => crate::picture::user_line(o),
+            _ => render_scene(o),
+        }),
+        image: matches!(view, View::Image | View::Both).then(|| picture_base64(o)),
         features: public.as_ref().filter(|_| view.features()).map(|p| features(p, spec.tier)),
         teacher: live.advice,
         public: public.filter(|_| view.public()),
@@ -776,8 +811,12 @@ mod tests {
     /// The rules forecaster's forecast of a reply's public observation, as
     /// a reply's `forecast` field.
     fn rules_forecast(reply: &StepReply) -> Value {
+        rules_forecast_of(reply.observation.public.as_ref().unwrap())
+    }
+
+    fn rules_forecast_of(o: &Observation) -> Value {
         use crate::forecast::{DOES_NOT_KEY, Forecaster, LETS_YOU_GO_KEY};
-        let f = crate::forecast::rules::RulesForecaster.forecast(reply.observation.public.as_ref().unwrap());
+        let f = crate::forecast::rules::RulesForecaster.forecast(o);
         json!({ LETS_YOU_GO_KEY: f.lets_you_go, DOES_NOT_KEY: f.does_not })
     }
 
@@ -825,9 +864,10 @@ mod tests {
     }
 
     /// Everything a client can read (the reset and step replies, the
-    /// state) is byte-identical under both dispositions of a seed until the
-    /// evidence turn, for every scenario and tier, driven by the expert
-    /// (which reads what the client reads) and by a blind schedule.
+    /// state, the scene's picture under views `image` and `both`) is
+    /// byte-identical under both dispositions of a seed until the evidence
+    /// turn, for every scenario and tier, driven by the expert (which reads
+    /// what the client reads) and by a blind schedule.
     #[test]
     fn nothing_a_client_sees_depends_on_the_disposition_before_the_evidence() {
         use crate::policy::{Policy, PolicyKind};
@@ -849,7 +889,13 @@ mod tests {
                             if forecast {
                                 episode.record_forecast_truth(set.get(kind));
                             }
-                            let first = s.start(episode, View::Full, "ep".into(), Some(teacher), forecast);
+                            // Some sessions see the scene's picture instead of its values.
+                            let view = match seed % 5 {
+                                1 => View::Image,
+                                3 => View::Both,
+                                _ => View::Full,
+                            };
+                            let first = s.start(episode, view, "ep".into(), Some(teacher), forecast);
                             (s, first)
                         });
                         // The evidence turn of the first disposition's play.
@@ -866,14 +912,16 @@ mod tests {
                             let state = |s: &Session| serde_json::to_string(&s.state()).unwrap();
                             assert_eq!(state(sa), state(sb));
                             compared += 1;
+                            let seen = sa.live.as_ref().unwrap().episode.observation().rounded();
+                            let seen = ra.observation.public.as_ref().unwrap_or(&seen);
                             let action = if expert {
-                                policy.act(ra.observation.public.as_ref().unwrap())
+                                policy.act(seen)
                             } else {
                                 Action::new(crate::action::Maneuver::Proceed, if turn % 3 == 0 { 0.0 } else { 0.7 })
                             };
                             let mut payload = serde_json::to_value(action).unwrap();
                             if forecast && turn % 2 == 0 {
-                                payload["forecast"] = rules_forecast(ra);
+                                payload["forecast"] = rules_forecast_of(seen);
                             }
                             for (s, r) in sessions.iter_mut() {
                                 *r = s.step(&payload).unwrap();
@@ -885,5 +933,34 @@ mod tests {
             }
         }
         assert!(compared > 1500, "{compared}");
+    }
+
+    /// View `image` carries the instructions for pictures, the one line and
+    /// the picture `eval --observation image` sends; `both` the scene text
+    /// beside the picture.
+    #[test]
+    fn the_image_view_carries_what_eval_sends_with_a_picture() {
+        use base64::Engine;
+        let set = ScenarioSet::default();
+        for kind in ScenarioKind::ALL {
+            for (view, mode) in
+                [(View::Image, crate::rundir::ObservationMode::Image), (View::Both, crate::rundir::ObservationMode::Both)]
+            {
+                let mut s = Session::default();
+                let episode = Episode::new(set.get(kind), Tier::T2, 5);
+                let obs = *episode.observation();
+                let first = s.start(episode, view, "ep".into(), None, false);
+                let o = &first.observation;
+                let png = base64::engine::general_purpose::STANDARD.decode(o.image.as_deref().unwrap()).unwrap();
+                assert_eq!(png, crate::picture::png(&obs).unwrap(), "{kind}");
+                let line = if view == View::Image { crate::picture::user_line(&obs) } else { render_scene(&obs) };
+                assert_eq!(o.scene.as_deref(), Some(line.as_str()));
+                let prompt = crate::instructions::system_prompt(crate::probe::Probe::NONE, kind, mode);
+                assert_eq!(o.instructions.as_deref(), Some(prompt.as_str()));
+                assert!(o.public.is_none() && o.features.is_none());
+                let next = s.step(&json!({"maneuver": "yield", "acceleration": 0.5})).unwrap();
+                assert!(next.observation.instructions.is_none() && next.observation.image.is_some());
+            }
+        }
     }
 }

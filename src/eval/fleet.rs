@@ -249,6 +249,15 @@ pub(super) fn truncation_guard(
 /// likely cause.
 pub(super) fn fatal_error(e: LlmError, ctx: &Ctx, dir: &std::path::Path) -> EvalError {
     let hint = match &e {
+        // Pictures sent to an endpoint that does not take them: name the flag.
+        LlmError::Permanent { status: 400 | 404 | 415 | 422, message } | LlmError::Refused { status: 400 | 404 | 415 | 422, message }
+            if ctx.options.config.pictures.is_some() && rejects_images(message) =>
+        {
+            format!(
+                " (the endpoint does not take the pictures of --observation {}: use a vision model, or run with --observation text)",
+                ctx.options.config.observation()
+            )
+        }
         LlmError::Refused { status: 401 | 403, .. } => match &ctx.options.api_key_var {
             Some(var) => format!(" (check the API key in ${var})"),
             None => " (no API key was sent: give --api-key-var or --endpoint)".to_string(),
@@ -285,6 +294,27 @@ pub(super) fn fatal_error(e: LlmError, ctx: &Ctx, dir: &std::path::Path) -> Eval
         | LlmError::Permanent { .. } => EvalError::Refused(msg),
         LlmError::Exhausted { .. } => EvalError::Rejected(msg),
     }
+}
+
+/// Whether an error body says the model or server takes no images, as
+/// providers word it: OpenAI's "image_url is only supported by certain
+/// models", vLLM's "is not a multimodal model", llama.cpp's "image input is
+/// not supported", Ollama's "does not support images", OpenRouter's "No
+/// endpoints found that support image input".
+pub(super) fn rejects_images(body: &str) -> bool {
+    let b = body.to_ascii_lowercase();
+    [
+        "image_url",
+        "image input",
+        "images",
+        "multimodal",
+        "vision",
+        "image content",
+        "image_parse_error",
+        "invalid image",
+    ]
+    .iter()
+    .any(|w| b.contains(w))
 }
 
 /// Which episode to start next. Cells (scenario, tier) start round-robin;

@@ -90,6 +90,16 @@ async fn interrupted(interrupt: &Option<Arc<tokio::sync::Notify>>) {
 }
 
 impl EvalOptions {
+    /// The input tokens of one picture sent by this run: by the prices
+    /// file's rule for the model, or OpenAI's tiles when it has none (0
+    /// for a text run).
+    pub fn tokens_per_picture(&self) -> u64 {
+        let Some(p) = self.config.pictures else { return 0 };
+        const OPENAI_TILES: rundir::ImageTokenRule = rundir::ImageTokenRule::Tiles { base: 85, per_tile: 170, low: 85 };
+        let rule = self.pricing.as_ref().and_then(|p| p.image_tokens).unwrap_or(OPENAI_TILES);
+        rule.tokens(crate::picture::SIZE_PX, crate::picture::SIZE_PX, p.detail)
+    }
+
     /// Lines telling what the request profile changed, printed before a run.
     pub fn profile_notes(&self) -> Vec<String> {
         let mut out = Vec::new();

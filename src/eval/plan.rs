@@ -18,16 +18,15 @@
 //! previous request of its episode.
 
 use super::EvalOptions;
-use super::prompt::{History, history_answer};
+use super::prompt::{History, SceneMessage, history_answer};
 use crate::action::parse_action;
 use crate::episode::Episode;
 use crate::export::{Cell, Column, Exporter, Field, MarkdownExporter, Style, Table};
-use crate::instructions::SYSTEM_PROMPT;
 use crate::llm::client::request_body;
 use crate::llm::{ChatMessage, ChatRequest, Role};
-use crate::observation::render_scene;
 use crate::policy::PolicyKind;
 use crate::rundir::record::EpisodeKey;
+use crate::rundir::{HistoryWindow, RunConfig};
 use crate::scenario::{ScenarioKind, Tier};
 use serde::Serialize;
 use std::collections::{BTreeMap, BinaryHeap, HashSet};
@@ -41,6 +40,11 @@ pub const BASE_TURN_LATENCY_S: f64 = 1.0;
 /// Assumed thinking speed (tokens per second) added to the turn latency of
 /// a model whose profile expects reasoning tokens.
 pub const THINKING_TOKENS_PER_S: f64 = 100.0;
+
+/// The system prompt the run sends for `kind`.
+fn system_prompt(config: &RunConfig, kind: ScenarioKind) -> String {
+    super::prompt::system_prompt(config.probe, kind, config.observation())
+}
 
 fn tokens(bytes: usize) -> u64 {
     bytes.div_ceil(BYTES_PER_TOKEN) as u64
@@ -59,6 +63,8 @@ pub struct CellPlan {
     pub turn_budget: u32,
     pub turns: u64,
     pub prompt_tokens: u64,
+    /// Of the prompt tokens, the pictures' (`--observation image|both`).
+    pub image_tokens: u64,
     /// Prompt tokens shared with the previous request of the episode.
     pub cacheable_tokens: u64,
     /// The answers' tokens, without reasoning.
@@ -75,6 +81,9 @@ pub struct Plan {
     pub episodes: u64,
     pub turns: u64,
     pub prompt_tokens: u64,
+    /// Of the prompt tokens, the pictures', and the rule that counted them.
+    pub image_tokens: u64,
+    pub image_rule: Option<String>,
     pub cacheable_tokens: u64,
     /// Answer tokens plus the profile's expected reasoning per turn.
     pub completion_tokens: u64,
@@ -98,6 +107,8 @@ pub struct Plan {
 struct Measured {
     turns: u32,
     prompt_tokens: u64,
+    /// Of the prompt tokens, the pictures' (by the prices file's rule).
+    image_tokens: u64,
     cacheable_tokens: u64,
     answer_tokens: u64,
 }
@@ -107,26 +118,37 @@ struct Measured {
 fn measure(options: &EvalOptions, key: (ScenarioKind, Tier, u64)) -> Measured {
     let (scenario, tier, seed) = key;
     let mut episode = Episode::new(options.scenario_set.get(scenario), tier, seed);
-    let system = ChatMessage::new(Role::System, SYSTEM_PROMPT);
+    let system = ChatMessage::new(Role::System, system_prompt(&options.config, scenario));
     let mut history = History::default();
     let mut previous: Vec<u8> = Vec::new();
     let mut m = Measured::default();
+    let per_picture = options.tokens_per_picture();
+    let image_history = options.config.pictures.and_then(|p| p.history);
+    // Pictures a provider could serve from its prefix cache: every earlier
+    // one, when each request extends the previous one (a full history with
+    // every picture kept); none once old turns change or drop out.
+    let prefix_keeps_pictures = options.config.history == HistoryWindow::Full && image_history.is_none();
     while !episode.is_done() {
-        let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
-        let body = {
-            let messages = history.messages(&system, options.config.history, &scene);
+        let scene = SceneMessage::for_counting(episode.observation(), options.config.pictures);
+        let (body, pictures) = {
+            let messages = history.messages(&system, options.config.history, image_history, &scene.message);
+            let pictures = messages.iter().filter(|msg| msg.image.is_some()).count() as u64;
             let request = ChatRequest {
                 model: &options.config.model,
                 messages: &messages,
                 params: &options.config.request_params,
             };
-            request_body(&request)
+            (request_body(&request), pictures)
         };
         let shared = previous.iter().zip(&body).take_while(|(a, b)| a == b).count();
-        let answer = crate::policy::reply::answer(PolicyKind::Expert, 0, &scene.content);
+        let answer = crate::policy::reply::answer(PolicyKind::Expert, 0, &scene.scene);
         let content = crate::policy::reply::action_content(&answer.action, &answer.reasoning);
         m.turns += 1;
-        m.prompt_tokens += tokens(body.len());
+        m.prompt_tokens += tokens(body.len()) + pictures * per_picture;
+        m.image_tokens += pictures * per_picture;
+        if prefix_keeps_pictures {
+            m.cacheable_tokens += pictures.saturating_sub(1) * per_picture;
+        }
         m.cacheable_tokens += (shared / BYTES_PER_TOKEN) as u64;
         m.answer_tokens += tokens(content.len());
         // The action eval would execute: the reply as its parser reads it.
@@ -163,6 +185,7 @@ pub fn plan(options: &EvalOptions, finished: &HashSet<EpisodeKey>, latency_s: Op
                     .turn_budget,
                 turns: 0,
                 prompt_tokens: 0,
+                image_tokens: 0,
                 cacheable_tokens: 0,
                 answer_tokens: 0,
             });
@@ -171,6 +194,7 @@ pub fn plan(options: &EvalOptions, finished: &HashSet<EpisodeKey>, latency_s: Op
         c.episodes += 1;
         c.turns += u64::from(m.turns);
         c.prompt_tokens += m.prompt_tokens;
+        c.image_tokens += m.image_tokens;
         c.cacheable_tokens += m.cacheable_tokens;
         c.answer_tokens += m.answer_tokens;
     }
@@ -191,6 +215,24 @@ pub fn plan(options: &EvalOptions, finished: &HashSet<EpisodeKey>, latency_s: Op
         episodes: todo.len() as u64,
         turns,
         prompt_tokens,
+        image_tokens: sum(|c| c.image_tokens),
+        image_rule: options.config.pictures.map(|p| {
+            let rule = options.pricing.as_ref().and_then(|p| p.image_tokens);
+            format!(
+                "{} per {}x{} picture at detail {} ({})",
+                options.tokens_per_picture(),
+                crate::picture::SIZE_PX,
+                crate::picture::SIZE_PX,
+                p.detail.name(),
+                match rule {
+                    Some(r) => format!(
+                        "the prices file's rule for this model: {}",
+                        serde_json::to_string(&r).unwrap_or_default()
+                    ),
+                    None => "no rule for this model in the prices file: OpenAI's tiles".to_string(),
+                }
+            )
+        }),
         cacheable_tokens,
         completion_tokens,
         reasoning_tokens,
@@ -226,7 +268,7 @@ fn schedule_turns(lengths: &mut [u64], slots: usize) -> u64 {
 pub(crate) fn table(plan: &Plan) -> Table {
     type C = CellPlan;
     let per_ep = |x: u64, c: &C| x as f64 / c.episodes.max(1) as f64;
-    let fields: [Field<C>; 8] = [
+    let mut fields: Vec<Field<C>> = vec![
         Field::new(Column::new("scenario", "scenario"), |c: &C| Cell::text(c.scenario.to_string())),
         Field::new(Column::new("tier", "tier"), |c: &C| Cell::Int(c.tier.number().into())),
         Field::new(Column::new("episodes", "episodes"), |c: &C| Cell::Int(c.episodes)),
@@ -242,6 +284,11 @@ pub(crate) fn table(plan: &Plan) -> Table {
             Cell::Float(per_ep(c.answer_tokens, c))
         }),
     ];
+    // Pictures' tokens: a column of picture runs only.
+    if plan.image_rule.is_some() {
+        let images = Column::new("image tokens/ep", "image_tokens_per_episode").style(Style::Whole);
+        fields.insert(6, Field::new(images, move |c: &C| Cell::Float(per_ep(c.image_tokens, c))));
+    }
     Table::of("dry_run", "", &fields, &plan.cells)
 }
 
@@ -282,6 +329,13 @@ pub fn render(plan: &Plan, options: &EvalOptions) -> String {
         plan.reasoning_per_turn,
         options.profile_name
     ));
+    if let Some(rule) = &plan.image_rule {
+        out.push_str(&format!(
+            "pictures (--observation {}): {} of the prompt tokens, {rule}\n",
+            options.config.observation(),
+            plan.image_tokens
+        ));
+    }
     let usd = crate::rundir::usd;
     match (&options.pricing, plan.cost_no_cache, plan.cost_all_cached) {
         (Some(p), Some(full), Some(cached)) => out.push_str(&format!(
@@ -326,13 +380,13 @@ pub fn render(plan: &Plan, options: &EvalOptions) -> String {
 pub fn first_request(options: &EvalOptions, finished: &HashSet<EpisodeKey>) -> Option<String> {
     let key = options.selection.keys().into_iter().find(|k| !finished.contains(k))?;
     let episode = Episode::new(options.scenario_set.get(key.scenario), key.tier, key.seed);
-    let system = ChatMessage::new(Role::System, SYSTEM_PROMPT);
-    let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
+    let system = ChatMessage::new(Role::System, system_prompt(&options.config, key.scenario));
+    let scene = SceneMessage::new(episode.observation(), options.config.pictures).ok()?;
     let history = History::default();
-    let messages = history.messages(&system, options.config.history, &scene);
+    let messages = history.messages(&system, options.config.history, None, &scene.message);
     let request =
         ChatRequest { model: &options.config.model, messages: &messages, params: &options.config.request_params };
-    let body = String::from_utf8_lossy(&request_body(&request)).into_owned();
+    let body = shorten_pictures(&String::from_utf8_lossy(&request_body(&request)));
     let mut out = format!("POST {}/chat/completions\n", options.client.base_url.trim_end_matches('/'));
     match (&options.client.api_key, &options.api_key_var) {
         (Some(k), _) => out.push_str(&format!("Authorization: Bearer {k}\n")),
@@ -348,6 +402,23 @@ pub fn first_request(options: &EvalOptions, finished: &HashSet<EpisodeKey>) -> O
     out.push_str(&body);
     out.push('\n');
     Some(out)
+}
+
+/// The body with each picture's base64 replaced by its length: a picture
+/// is tens of kilobytes that say nothing to a reader of the plan.
+fn shorten_pictures(body: &str) -> String {
+    const PREFIX: &str = "data:image/png;base64,";
+    let mut out = String::with_capacity(body.len().min(1 << 16));
+    let mut rest = body;
+    while let Some(at) = rest.find(PREFIX) {
+        let start = at + PREFIX.len();
+        let len = rest[start..].find('"').unwrap_or(rest.len() - start);
+        out.push_str(&rest[..start]);
+        out.push_str(&format!("...({len} base64 characters)..."));
+        rest = &rest[start + len..];
+    }
+    out.push_str(rest);
+    out
 }
 
 #[cfg(test)]

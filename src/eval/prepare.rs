@@ -3,12 +3,11 @@
 //! preflight request.
 
 use super::events::{Counters, Event, Reporter};
-use super::prompt::History;
+use super::prompt::{History, SceneMessage};
 use super::store::{StoreError, Writer};
 use super::{Ctx, EvalError, EvalOptions, git_revision, now_rfc3339, prompt, store};
 use crate::episode::Episode;
 use crate::llm::{ChatMessage, ChatRequest, Client, LlmError, Role};
-use crate::observation::render_scene;
 use crate::rundir;
 use crate::rundir::record::{EpisodeKey, EpisodeScalars};
 use crate::rundir::{Invocation, RunInfo, RunStatus, SCHEMA_VERSION, Totals};
@@ -31,9 +30,10 @@ pub(super) async fn preflight(run: &Prepared) -> Result<(), LlmError> {
     let ctx = &run.ctx;
     let opts = &ctx.options;
     let episode = Episode::new(opts.scenario_set.get(key.scenario), key.tier, key.seed);
-    let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
+    let scene = SceneMessage::new(episode.observation(), opts.config.pictures)
+        .map_err(|e| LlmError::Permanent { status: 0, message: e.to_string() })?;
     let history = History::default();
-    let messages = history.messages(ctx.system(key.scenario), opts.config.history, &scene);
+    let messages = history.messages(ctx.system(key.scenario), opts.config.history, None, &scene.message);
     let request = ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
     let on_retry = |message: &str| {
         ctx.counters.retries.fetch_add(1, Relaxed);
@@ -120,7 +120,15 @@ pub(super) fn prepare(
         client,
         systems: ScenarioKind::ALL
             .iter()
-            .map(|&k| (k, ChatMessage::new(Role::System, prompt::system_prompt(options.config.probe, k))))
+            .map(|&k| {
+                (
+                    k,
+                    ChatMessage::new(
+                        Role::System,
+                        prompt::system_prompt(options.config.probe, k, options.config.observation()),
+                    ),
+                )
+            })
             .collect(),
         hash,
         counters,

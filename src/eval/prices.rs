@@ -51,6 +51,7 @@ struct ProviderEntry {
     source: Option<String>,
     free: bool,
     models: BTreeMap<String, Rates>,
+    images: BTreeMap<String, crate::rundir::ImageTokenRule>,
 }
 
 /// A prices file as written, every field checked (see [`read_file`]).
@@ -105,7 +106,7 @@ fn read_file(path: &str, text: &str) -> Result<PricesFileRaw, PriceError> {
     for (name, v) in provider_tables {
         let at = format!("providers.{name}");
         let Value::Table(t) = v else { return Err(err(&at, "expected a table")) };
-        unknown(t, &format!("{at}."), &["hosts", "source", "free", "models"])?;
+        unknown(t, &format!("{at}."), &["hosts", "source", "free", "models", "images"])?;
         let mut entry = ProviderEntry::default();
         match t.get("hosts") {
             Some(Value::Array(hosts)) => {
@@ -147,6 +148,19 @@ fn read_file(path: &str, text: &str) -> Result<PricesFileRaw, PriceError> {
                 .models
                 .insert(model.clone(), Rates { input: required("input")?, cached_input, output: required("output")? });
         }
+        match t.get("images") {
+            Some(Value::Table(rules)) => {
+                for (model, v) in rules {
+                    let at = format!("{at}.images.\"{model}\"");
+                    let rule = v.clone().try_into::<crate::rundir::ImageTokenRule>().map_err(|e| {
+                        err(&at, &format!("{} (expected e.g. {{ rule = \"tiles\", base = 85, per_tile = 170, low = 85 }}, {{ rule = \"patches\", multiplier = 1.62 }}, {{ rule = \"area\", px_per_token = 750 }} or {{ rule = \"per_image\", tokens = 258 }})", e.message().trim()))
+                    })?;
+                    entry.images.insert(model.clone(), rule);
+                }
+            }
+            Some(_) => return Err(err(&format!("{at}.images"), "expected a table of image-token rules by model")),
+            None => {}
+        }
         providers.insert(name.clone(), entry);
     }
     Ok(PricesFileRaw { as_of, providers })
@@ -162,6 +176,7 @@ struct Provider {
     /// Set by the file that made the provider free.
     free_as_of: String,
     models: BTreeMap<String, (Rates, String)>,
+    images: BTreeMap<String, crate::rundir::ImageTokenRule>,
 }
 
 /// The price table in force: built-in, then any user file over it.
@@ -209,6 +224,7 @@ impl Prices {
             for (model, rates) in entry.models {
                 p.models.insert(model, (rates, raw.as_of.clone()));
             }
+            p.images.extend(entry.images);
         }
         Ok(())
     }
@@ -226,20 +242,24 @@ impl Prices {
             output: rates.output,
             as_of: as_of.to_string(),
             source: provider.source.clone(),
+            image_tokens: by_model(&provider.images, model).map(|(_, rule)| *rule),
         };
-        if let Some((rates, as_of)) = provider.models.get(model) {
-            return Some(pricing(model, *rates, as_of));
-        }
-        let by_pattern = provider
-            .models
-            .iter()
-            .filter(|(pattern, _)| pattern.contains('*') && crate::llm::profile::glob_match(pattern, model))
-            .max_by_key(|(pattern, _)| pattern.len());
-        if let Some((pattern, (rates, as_of))) = by_pattern {
-            return Some(pricing(pattern, *rates, as_of));
+        if let Some((entry, (rates, as_of))) = by_model(&provider.models, model) {
+            return Some(pricing(entry, *rates, as_of));
         }
         provider.free.then(|| pricing("*", Rates::FREE, &provider.free_as_of))
     }
+}
+
+/// The entry of `model` in a table keyed by model id or `*` pattern: the
+/// exact id, else the longest matching pattern.
+fn by_model<'a, T>(table: &'a BTreeMap<String, T>, model: &str) -> Option<(&'a String, &'a T)> {
+    table.get_key_value(model).or_else(|| {
+        table
+            .iter()
+            .filter(|(pattern, _)| pattern.contains('*') && crate::llm::profile::glob_match(pattern, model))
+            .max_by_key(|(pattern, _)| pattern.len())
+    })
 }
 
 /// A TOML syntax error on one line (its message spans several, with a
@@ -340,6 +360,37 @@ hosts = ["api.x.com"]
         assert_eq!(flat.cost(1000, 400, 0), 1000.0 * 2.0 / 1e6);
         // A provider reporting more cached than prompt tokens is clamped.
         assert_eq!(r.cost(100, 500, 0), 100.0 * 0.5 / 1e6);
+    }
+
+    /// The providers' documented counts for one 512 x 512 picture: OpenAI's
+    /// 85 (low) and 255 (high, one tile), Anthropic's 512 x 512 / 750,
+    /// Gemini 2.x's 258; and OpenAI's own 1024 x 1024 example, 765.
+    #[test]
+    fn the_image_rules_give_the_providers_documented_counts() {
+        use crate::rundir::ImageDetail::{Auto, High, Low};
+        let prices = Prices::builtin();
+        let rule = |url: &str, model: &str| prices.lookup(url, model).unwrap().image_tokens.unwrap();
+        let gpt4o = rule("https://api.openai.com/v1", "gpt-4o");
+        assert_eq!(
+            [gpt4o.tokens(512, 512, Low), gpt4o.tokens(512, 512, High), gpt4o.tokens(512, 512, Auto)],
+            [85, 255, 255]
+        );
+        assert_eq!(gpt4o.tokens(1024, 1024, High), 765);
+        assert_eq!(gpt4o.tokens(2048, 4096, High), 1105);
+        assert_eq!(rule("https://api.openai.com/v1", "gpt-4o-mini").tokens(512, 512, High), 2833 + 5667);
+        assert_eq!(rule("https://api.openai.com/v1", "gpt-4.1-mini").tokens(512, 512, High), 415);
+        assert_eq!(rule("https://api.anthropic.com/v1/", "claude-sonnet-4-5").tokens(512, 512, Auto), 350);
+        assert_eq!(
+            rule("https://generativelanguage.googleapis.com/v1beta/openai/", "gemini-2.5-flash").tokens(512, 512, Low),
+            258
+        );
+        assert_eq!(rule("https://openrouter.ai/api/v1", "google/gemini-2.5-flash").tokens(512, 512, High), 258);
+        // A local server has no rule: its pictures cost nothing, and their
+        // tokens are counted by the fallback.
+        assert_eq!(prices.lookup("http://127.0.0.1:8000/v1", "m").unwrap().image_tokens, None);
+        let bad = "as_of = \"2025-01-01\"\n[providers.openai.images]\n\"*\" = { rule = \"tiles\", base = 85 }\n";
+        let err = Prices::builtin().overlay("f.toml", bad).unwrap_err().to_string();
+        assert!(err.starts_with("f.toml: providers.openai.images.\"*\": ") && err.contains("per_tile"), "{err}");
     }
 
     #[test]

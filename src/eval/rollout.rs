@@ -1,14 +1,13 @@
 //! One episode played against the endpoint, turn by turn, and its record
 //! (the line of `rollouts.jsonl`).
 
-use super::prompt::History;
+use super::prompt::{History, SceneMessage};
 use super::{AtomicU32, Ctx, now_rfc3339, prompt};
 use crate::action::{parse_action, parse_belief};
 use crate::belief::{BeliefMetrics, BeliefTurn};
 use crate::episode::{Episode, EpisodeRecord, ForecastTruth};
 use crate::forecast::{ForecastMetrics, ForecastTurn};
-use crate::llm::{ChatMessage, ChatRequest, Completion, LlmError, Role};
-use crate::observation::render_scene;
+use crate::llm::{ChatRequest, Completion, LlmError};
 use crate::rundir::record::{EpisodeKey, EpisodeScalars, ProbeScores, Provenance, RolloutRecord, TurnRecord};
 use std::sync::atomic::Ordering::Relaxed;
 use std::time::Instant;
@@ -69,8 +68,14 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
     let mut cost: Option<f64> = opts.pricing.as_ref().map(|_| 0.0);
     while !episode.is_done() {
         let turn = episode.observation().turn;
-        let scene = ChatMessage::new(Role::User, render_scene(episode.observation()));
-        let messages = history.messages(ctx.system(key.scenario), opts.config.history, &scene);
+        let scene = match SceneMessage::new(episode.observation(), opts.config.pictures) {
+            Ok(s) => s,
+            Err(e) => return Err(EpisodeError::Infra { turn, message: e.to_string() }),
+        };
+        let image_history = opts.config.pictures.and_then(|p| p.history);
+        let messages = history.messages(ctx.system(key.scenario), opts.config.history, image_history, &scene.message);
+        let pictures = messages.iter().filter(|m| m.image.is_some()).count() as u32;
+        let image_tokens = u64::from(pictures) * opts.tokens_per_picture();
         let request =
             ChatRequest { model: &opts.config.model, messages: &messages, params: &opts.config.request_params };
         let on_retry = |message: &str| {
@@ -95,7 +100,8 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             Err(e @ LlmError::ContextOverflow { .. }) => return Err(EpisodeError::ContextOverflow { turn, error: e }),
             Err(e) => return Err(EpisodeError::Fatal(e)),
         };
-        let sent_bytes: usize = messages.iter().map(|m| m.content.len()).sum();
+        // Without usage, tokens are estimated from the text's bytes plus the pictures' rule.
+        let sent_bytes: usize = messages.iter().map(|m| m.content.len()).sum::<usize>() + 4 * image_tokens as usize;
         drop(messages);
         let parsed = parse_reply(&completion, ctx.options.client.max_reply_bytes);
         let (tokens, estimated) = turn_tokens(&completion, sent_bytes);
@@ -115,7 +121,7 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
         let truncated = completion.finish_reason.as_deref() == Some("length");
         turns.push(TurnRecord {
             turn,
-            scene: scene.content.clone(),
+            scene: scene.scene.clone(),
             reply: completion.content,
             reasoning: completion.reasoning,
             finish_reason: completion.finish_reason,
@@ -129,6 +135,8 @@ pub(super) async fn play(ctx: &Ctx, key: EpisodeKey) -> EpisodeResult {
             tokens,
             tokens_estimated: estimated,
             reply_capped: completion.capped,
+            pictures,
+            image_tokens,
             latency_ms: completion.latency.as_millis() as u64,
             attempts: completion.attempts,
             after_resolution: false,

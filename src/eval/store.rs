@@ -356,6 +356,7 @@ mod tests {
             endpoint: String::new(),
             probe: Default::default(),
             human: None,
+            pictures: None,
         };
         let info = RunInfo {
             schema_version: crate::rundir::SCHEMA_VERSION,

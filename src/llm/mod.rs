@@ -13,4 +13,4 @@ pub mod profile;
 pub mod types;
 
 pub use client::{Client, ClientConfig, Completion, DEFAULT_MAX_REPLY_BYTES, LlmError, RetryPolicy};
-pub use types::{ChatMessage, ChatRequest, Role, Usage};
+pub use types::{ChatMessage, ChatRequest, ImageUrl, Role, Usage};

@@ -10,11 +10,55 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize};
 use serde_json::{Map, Value};
 
-/// One message of the conversation we send.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// One message of the conversation we send: its text, and for a scene
+/// shown as a picture the picture, sent before the text as OpenAI content
+/// parts (`[{"type": "image_url", ...}, {"type": "text", ...}]`); a message
+/// without a picture is sent as a plain string, as before.
+#[derive(Debug, Clone, PartialEq)]
 pub struct ChatMessage {
     pub role: Role,
     pub content: String,
+    /// The picture, shared (the history holds every turn's).
+    pub image: Option<std::sync::Arc<ImageUrl>>,
+}
+
+/// An `image_url` content part's body: the picture as a data URL and the
+/// detail the provider should look at it with.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ImageUrl {
+    pub url: String,
+    pub detail: &'static str,
+}
+
+impl ImageUrl {
+    /// A PNG as a `data:image/png;base64,` URL.
+    pub fn png(bytes: &[u8], detail: &'static str) -> ImageUrl {
+        use base64::Engine;
+        let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
+        ImageUrl { url: format!("data:image/png;base64,{b64}"), detail }
+    }
+}
+
+impl Serialize for ChatMessage {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        #[derive(Serialize)]
+        #[serde(tag = "type", rename_all = "snake_case")]
+        enum Part<'a> {
+            ImageUrl { image_url: &'a ImageUrl },
+            Text { text: &'a str },
+        }
+        let mut m = s.serialize_struct("ChatMessage", 2)?;
+        m.serialize_field("role", &self.role)?;
+        match &self.image {
+            None => m.serialize_field("content", &self.content)?,
+            Some(image) => m.serialize_field(
+                "content",
+                &[Part::ImageUrl { image_url: image }, Part::Text { text: &self.content }],
+            )?,
+        }
+        m.end()
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -27,7 +71,13 @@ pub enum Role {
 
 impl ChatMessage {
     pub fn new(role: Role, content: impl Into<String>) -> ChatMessage {
-        ChatMessage { role, content: content.into() }
+        ChatMessage { role, content: content.into(), image: None }
+    }
+
+    /// The same message with a picture before its text.
+    pub fn with_image(mut self, image: std::sync::Arc<ImageUrl>) -> ChatMessage {
+        self.image = Some(image);
+        self
     }
 }
 

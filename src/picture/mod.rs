@@ -462,6 +462,59 @@ pub fn view(kind: ScenarioKind) -> Option<View> {
     drawing(kind).map(|d| d.view)
 }
 
+/// The system prompt's paragraph for a run shown pictures: what the
+/// picture shows and its scale, for `kind`'s view. With `with_text` the
+/// scene text comes beside it; without, the picture replaces it and the
+/// paragraph carries what the text's first lines say once per episode
+/// (the scene and its situation).
+pub fn prompt_paragraph(kind: ScenarioKind, with_text: bool) -> String {
+    let Some(view) = view(kind) else { return String::new() };
+    let labels = kind.track_labels();
+    let mut others: Vec<String> = Vec::with_capacity(labels.len());
+    for (k, l) in labels.iter().enumerate() {
+        others.push(format!("{} in {}", l.now, if k == 0 { "orange" } else { "purple" }));
+    }
+    let mut p = format!(
+        "\n\nEach turn shows the scene as a {SIZE_PX} x {SIZE_PX} bird's-eye picture, to scale at {} pixels per metre \
+         (the scale bar is 10 m). Top band: the turn and time, then your \"You:\" line and your last action, as words. \
+         Below, the road seen from above: you are the blue box (cars are 1.9 x 4.8 m), {}; pedestrians are 0.6 m discs. \
+         Each road user's last 2 s are a fading trail of dots at the history's instants, and its arrow is where its \
+         current speed takes it in one second.",
+        n(view.px_per_m),
+        others.join(", ")
+    );
+    if with_text {
+        p.push_str(" The same scene is also given as text, which the picture agrees with.");
+    } else {
+        let _ = write!(
+            p,
+            " No scene text is sent: the user message says only the turn.\nScene: {}\nSituation: {}",
+            kind.scene_name(),
+            kind.situation()
+        );
+    }
+    p
+}
+
+/// The one line sent with a picture in place of the scene text: the turn,
+/// and (on tiers with noisy readings) the text's readings sentence, which
+/// the picture cannot show.
+pub fn user_line(obs: &Observation) -> String {
+    let mut line = if obs.turn <= 1 {
+        format!("Turn {} of {}: answer as the instructions say.", obs.turn, obs.turn_budget)
+    } else {
+        format!("Turn {} of {}: answer as before.", obs.turn, obs.turn_budget)
+    };
+    if obs.reading_noise.is_some() {
+        let text = crate::observation::render_scene(obs);
+        if let Some(readings) = text.lines().find(|l| l.starts_with("Readings:")) {
+            line.push('\n');
+            line.push_str(readings);
+        }
+    }
+    line
+}
+
 /// Why a picture could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum PictureError {

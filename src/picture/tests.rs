@@ -163,3 +163,40 @@ fn the_legend_says_what_the_text_says() {
         }
     }
 }
+
+/// The picture is a function of the scene text: the observation parsed
+/// back from the text draws the same bytes (so a record's scene text is
+/// enough to show its picture again), and the one line sent in its place
+/// names the turn and no figure of the scene.
+#[test]
+fn the_scene_text_draws_the_same_picture() {
+    for kind in ScenarioKind::ALL {
+        for tier in Tier::ALL {
+            let [a, _] = kind.def().dispositions;
+            for obs in observations(kind, tier, 2, a).iter().step_by(3) {
+                let text = crate::observation::render_scene(obs);
+                let parsed = crate::observation::parse_scene(&text).unwrap();
+                assert_eq!(png(&parsed).unwrap(), png(obs).unwrap(), "{kind}/t{tier} turn {}", obs.turn);
+                let line = user_line(obs);
+                assert!(line.starts_with(&format!("Turn {} of {}: ", obs.turn, obs.turn_budget)), "{line}");
+                assert_eq!(line.contains("Readings: "), obs.reading_noise.is_some(), "{line}");
+                assert!(!line.contains(" m/s,") && !line.contains("You:"), "{line}");
+            }
+        }
+    }
+}
+
+/// The system prompt's paragraph: the scale of the scenario's own view,
+/// and, without the text, the scene's name and situation, which the text
+/// would have said.
+#[test]
+fn the_prompt_paragraph_states_the_scale_and_without_text_the_situation() {
+    for kind in ScenarioKind::ALL {
+        let alone = prompt_paragraph(kind, false);
+        let beside = prompt_paragraph(kind, true);
+        let scale = format!("{} pixels per metre", n(view(kind).unwrap().px_per_m));
+        assert!(alone.contains(&scale) && beside.contains(&scale), "{kind}: {alone}");
+        assert!(alone.contains(kind.situation()) && !beside.contains(kind.situation()), "{kind}");
+        assert!(alone.contains(&format!("Scene: {}", kind.scene_name())), "{kind}");
+    }
+}

@@ -46,6 +46,69 @@ pub enum RunDirError {
     BadRunJson { path: String, message: String },
 }
 
+/// What each user turn shows the model (`eval --observation`): the scene
+/// text (the default), the bird's-eye picture with one short line, or both.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ObservationMode {
+    #[default]
+    Text,
+    Image,
+    Both,
+}
+
+impl ObservationMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            ObservationMode::Text => "text",
+            ObservationMode::Image => "image",
+            ObservationMode::Both => "both",
+        }
+    }
+}
+
+impl std::fmt::Display for ObservationMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The `detail` of an OpenAI image content part (`--image-detail`): how
+/// finely the provider looks at the picture, and so what it costs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ImageDetail {
+    Low,
+    High,
+    #[default]
+    Auto,
+}
+
+impl ImageDetail {
+    pub fn name(self) -> &'static str {
+        match self {
+            ImageDetail::Low => "low",
+            ImageDetail::High => "high",
+            ImageDetail::Auto => "auto",
+        }
+    }
+}
+
+/// How a run shows the scene as a picture (`--observation image|both`),
+/// part of the run's identity: what the model is shown changes what it
+/// does, so a picture run is its own run directory and leaderboard row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PictureSettings {
+    /// `image` or `both` (never `text`: a text run has no settings).
+    pub observation: ObservationMode,
+    /// The content part's `detail`.
+    pub detail: ImageDetail,
+    /// Pictures are kept only in the last K user turns (`--image-history`);
+    /// absent: in every turn the history window keeps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history: Option<u32>,
+}
+
 /// History window sent to the model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(into = "String", try_from = "String")]
@@ -175,6 +238,17 @@ pub struct RunConfig {
     /// models (earlier runs' hashes are unchanged).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub human: Option<HumanSettings>,
+    /// `--observation image|both`: the scene shown as a picture. Absent for
+    /// text runs (earlier runs' hashes are unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pictures: Option<PictureSettings>,
+}
+
+impl RunConfig {
+    /// What each user turn shows (`text` without picture settings).
+    pub fn observation(&self) -> ObservationMode {
+        self.pictures.map_or(ObservationMode::Text, |p| p.observation)
+    }
 }
 
 /// How a person played (`negotiator play`), part of the run's identity:
@@ -375,6 +449,51 @@ pub struct Pricing {
     pub as_of: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<String>,
+    /// How the provider counts a picture's input tokens (the prices file's
+    /// `images` rule for this model); absent when the file gives none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image_tokens: Option<ImageTokenRule>,
+}
+
+/// How a provider counts the input tokens of one picture, as its pricing
+/// documentation states it (the prices file's `images` tables).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "rule", rename_all = "snake_case")]
+pub enum ImageTokenRule {
+    /// OpenAI's tiles: `low` for a low-detail picture; otherwise the
+    /// picture is fitted within 2048 x 2048, its shorter side scaled down
+    /// to 768 px, and it costs `base` plus `per_tile` for each 512 px tile.
+    Tiles { base: u64, per_tile: u64, low: u64 },
+    /// OpenAI's patches (the mini and nano models): one 32 x 32 px patch
+    /// per token (at most 1536), times the model's `multiplier`.
+    Patches { multiplier: f64 },
+    /// Anthropic's area rule: width x height / `px_per_token`.
+    Area { px_per_token: f64 },
+    /// A fixed count per picture (Gemini's 258 for a picture this size).
+    PerImage { tokens: u64 },
+}
+
+impl ImageTokenRule {
+    /// The input tokens of one `width` x `height` picture sent at `detail`.
+    pub fn tokens(&self, width: u32, height: u32, detail: ImageDetail) -> u64 {
+        let (w, h) = (f64::from(width), f64::from(height));
+        match *self {
+            ImageTokenRule::Tiles { low, .. } if detail == ImageDetail::Low => low,
+            ImageTokenRule::Tiles { base, per_tile, .. } => {
+                let fit = (2048.0 / w.max(h)).min(1.0);
+                let (w, h) = (w * fit, h * fit);
+                let shorter = (768.0 / w.min(h)).min(1.0);
+                let (w, h) = (w * shorter, h * shorter);
+                base + per_tile * ((w / 512.0).ceil() * (h / 512.0).ceil()) as u64
+            }
+            ImageTokenRule::Patches { multiplier } => {
+                let patches = ((w / 32.0).ceil() * (h / 32.0).ceil()).min(1536.0);
+                (patches * multiplier).ceil() as u64
+            }
+            ImageTokenRule::Area { px_per_token } => (w * h / px_per_token).ceil() as u64,
+            ImageTokenRule::PerImage { tokens } => tokens,
+        }
+    }
 }
 
 impl Pricing {
@@ -522,6 +641,7 @@ mod tests {
             endpoint: "http://127.0.0.1:1/v1".into(),
             probe: crate::probe::Probe::NONE,
             human: None,
+            pictures: None,
         }
     }
 

@@ -33,7 +33,9 @@ impl std::fmt::Display for EpisodeKey {
 pub struct TurnRecord {
     /// 1-based decision index.
     pub turn: u32,
-    /// The user message: the rendered scene text.
+    /// The scene text of this decision. Under `--observation image` the
+    /// model was shown the picture drawn from it (and one line) instead;
+    /// under `both`, the picture and this text.
     pub scene: String,
     /// The raw reply content as received (`null` when the provider sent
     /// none). Includes any `<think>` block.
@@ -71,6 +73,14 @@ pub struct TurnRecord {
     /// Prompt tokens served from the provider's cache (`llm::Usage::cached`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub cached_tokens: u64,
+    /// Pictures in this turn's request (`--observation image|both`: this
+    /// turn's and those the image history keeps).
+    #[serde(default, skip_serializing_if = "is_zero_u32")]
+    pub pictures: u32,
+    /// Input tokens of those pictures, by the prices file's rule for the
+    /// model (OpenAI's tiles when it has none); part of the prompt tokens.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub image_tokens: u64,
     /// Wall time of the successful request (ms).
     pub latency_ms: u64,
     /// Requests made for this turn (1 = no retry).
@@ -368,5 +378,9 @@ impl InfraErrorRecord {
 }
 
 fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
+
+fn is_zero_u32(n: &u32) -> bool {
     *n == 0
 }

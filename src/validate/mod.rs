@@ -212,13 +212,24 @@ impl<'a> Run<'a> {
             .get_or_init(|| search_blind(self.set, &self.scenarios, &Tier::ALL, self.seeds.clone(), self.search_budget))
     }
 
-    /// The hidden-disposition check on the scene text, and the observations
+    /// The hidden-disposition check on what a model is shown (the scene
+    /// text and the bytes of the scene's PNG picture), and the observations
     /// it rendered (which the round-trip line parses back).
     fn hidden(&self) -> &(Check, Vec<crate::observation::Observation>) {
         self.hidden.get_or_init(|| {
-            check_hidden_disposition(self.set, &self.scenarios, &Tier::ALL, self.seeds.clone(), &|e: &Episode| {
-                render_scene(e.observation())
-            })
+            let (mut check, observations) =
+                check_hidden_disposition(self.set, &self.scenarios, &Tier::ALL, self.seeds.clone(), &|e: &Episode| {
+                    let mut shown = render_scene(e.observation());
+                    match crate::picture::png(e.observation()) {
+                        Ok(png) => shown.extend(png.iter().map(|b| char::from(*b))),
+                        Err(err) => shown.push_str(&err.to_string()),
+                    }
+                    shown
+                });
+            if check.pass {
+                check.figure.push_str(" (scene text and PNG picture)");
+            }
+            (check, observations)
         })
     }
 }

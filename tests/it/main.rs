@@ -17,3 +17,4 @@ mod report;
 mod run_v0;
 mod serve;
 mod support;
+mod vision;

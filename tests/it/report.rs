@@ -89,6 +89,7 @@ fn config(model: &str, temperature: Option<f64>) -> RunConfig {
         endpoint: String::new(),
         probe: Default::default(),
         human: None,
+        pictures: None,
     }
 }
 

@@ -162,6 +162,8 @@ pub fn mock(handler: Handler) -> String {
                     }
                 }),
             );
+            // Conversations of pictures outgrow axum's 2 MB default.
+            let app = app.layer(axum::extract::DefaultBodyLimit::max(64 << 20));
             axum::serve(listener, app).await.unwrap();
         });
     });

@@ -1,0 +1,184 @@
+//! Conversations that show the scene as a picture (`eval --observation
+//! image`): `serve` finds the episode behind them without reading a pixel,
+//! as the belief probe finds it behind text.
+//!
+//! A picture is compared only as bytes, with the picture the simulator
+//! draws for a candidate episode's observation. The first picture of every
+//! (scenario, tier, seed) in `--probe-seeds` is indexed by the hash of its
+//! PNG (built on the first picture conversation, in parallel); a
+//! conversation's candidates are replayed with the actions of its earlier
+//! replies, and the one whose every picture matches is the episode. The
+//! scripted policy then answers from that episode's scene texts, which are
+//! what the pictures were drawn from.
+//!
+//! With `--image-history K` the first turns lose their picture, so the
+//! episode of every answered conversation is remembered by the hash of its
+//! last picture, and a later request is found from any picture it still
+//! holds. Each text's picture hash is cached, so a request draws at most
+//! one new picture per candidate.
+
+use crate::episode::Episode;
+use crate::hash::fnv1a64;
+use crate::observation::render_scene;
+use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
+
+/// Remembered pictures and texts are forgotten past this many entries.
+const MAX_REMEMBERED: usize = 1 << 20;
+
+/// One user turn of a conversation: its picture's hash, if it has one.
+pub(crate) struct UserTurn {
+    pub(crate) picture: Option<u64>,
+}
+
+/// The hash a picture is known by: of its PNG bytes as base64 (the data
+/// URL's payload), whatever detail it was sent at.
+pub(crate) fn picture_hash(data_url: &str) -> u64 {
+    fnv1a64(data_url.rsplit_once(',').map_or(data_url, |(_, b64)| b64))
+}
+
+/// The prompt tokens of a request's pictures, counted as OpenAI counts a
+/// 512 x 512 picture (85 at detail low, 255 otherwise), and the bytes of
+/// their data URLs (which the byte estimate of the text leaves out).
+pub(crate) fn picture_usage(pictures: &[(&str, Option<&str>)]) -> (u64, usize) {
+    let rule = crate::rundir::ImageTokenRule::Tiles { base: 85, per_tile: 170, low: 85 };
+    let side = crate::picture::SIZE_PX;
+    pictures.iter().fold((0, 0), |(tokens, bytes), (url, detail)| {
+        let detail =
+            if *detail == Some("low") { crate::rundir::ImageDetail::Low } else { crate::rundir::ImageDetail::High };
+        (tokens + rule.tokens(side, side, detail), bytes + url.len())
+    })
+}
+
+/// The episode found behind a pictured conversation: its scene texts, the
+/// last one the scene to answer, and the ideal observer's belief there.
+pub(crate) struct Found {
+    pub(crate) scenes: Vec<String>,
+    pub(crate) ideal_belief: f64,
+}
+
+type Key = (ScenarioKind, Tier, u64);
+
+pub(crate) struct PictureIndex {
+    seeds: std::ops::Range<u64>,
+    set: ScenarioSet,
+    by_first_picture: OnceLock<HashMap<u64, Vec<Key>>>,
+    /// Scene-text hash -> its picture's hash (a picture is drawn from the text's figures).
+    drawn: Mutex<HashMap<u64, u64>>,
+    /// Last picture of an answered conversation -> its episode.
+    answered: Mutex<HashMap<u64, Key>>,
+}
+
+impl std::fmt::Debug for PictureIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "PictureIndex(seeds {:?})", self.seeds)
+    }
+}
+
+fn png_hash(episode: &Episode) -> u64 {
+    use base64::Engine;
+    match crate::picture::png(episode.observation()) {
+        Ok(png) => fnv1a64(&base64::engine::general_purpose::STANDARD.encode(png)),
+        Err(_) => 0,
+    }
+}
+
+impl PictureIndex {
+    pub(crate) fn new(seeds: std::ops::Range<u64>) -> PictureIndex {
+        PictureIndex {
+            seeds,
+            set: ScenarioSet::default(),
+            by_first_picture: OnceLock::new(),
+            drawn: Mutex::new(HashMap::new()),
+            answered: Mutex::new(HashMap::new()),
+        }
+    }
+
+    fn first_pictures(&self) -> &HashMap<u64, Vec<Key>> {
+        self.by_first_picture.get_or_init(|| {
+            let keys: Vec<Key> = ScenarioKind::ALL
+                .into_iter()
+                .flat_map(|k| Tier::ALL.into_iter().flat_map(move |t| self.seeds.clone().map(move |s| (k, t, s))))
+                .collect();
+            crate::redact::eline!(
+                "serve: indexing the first picture of {} episodes (--probe-seeds {}..{})",
+                keys.len(),
+                self.seeds.start,
+                self.seeds.end
+            );
+            let hashes = crate::par::par_map(&keys, |&(k, t, s)| {
+                let episode = Episode::new(self.set.get(k), t, s);
+                (fnv1a64(&render_scene(episode.observation())), png_hash(&episode))
+            });
+            let mut drawn = self.drawn.lock().unwrap_or_else(|e| e.into_inner());
+            let mut index: HashMap<u64, Vec<Key>> = HashMap::new();
+            for (key, (text, picture)) in keys.into_iter().zip(hashes) {
+                drawn.insert(text, picture);
+                index.entry(picture).or_default().push(key);
+            }
+            index
+        })
+    }
+
+    /// Whether `episode`'s picture now is the one hashed `picture`.
+    fn shows(&self, episode: &Episode, text: &str, picture: u64) -> bool {
+        let text_hash = fnv1a64(text);
+        if let Some(&known) = self.drawn.lock().unwrap_or_else(|e| e.into_inner()).get(&text_hash) {
+            return known == picture;
+        }
+        let drawn = png_hash(episode);
+        let mut cache = self.drawn.lock().unwrap_or_else(|e| e.into_inner());
+        if cache.len() >= MAX_REMEMBERED {
+            cache.clear();
+        }
+        cache.insert(text_hash, drawn);
+        drawn == picture
+    }
+
+    /// The episode behind a conversation of `users` turns with `replies`
+    /// between them, or None when no candidate shows its every picture.
+    pub(crate) fn find(&self, users: &[UserTurn], replies: &[&str]) -> Option<Found> {
+        let last = users.len().checked_sub(1)?;
+        if replies.len() < last {
+            return None;
+        }
+        let mut candidates: Vec<Key> = Vec::new();
+        if let Some(first) = users[0].picture {
+            candidates.extend(self.first_pictures().get(&first).into_iter().flatten());
+        }
+        {
+            let answered = self.answered.lock().unwrap_or_else(|e| e.into_inner());
+            candidates.extend(users.iter().filter_map(|u| u.picture.and_then(|p| answered.get(&p))));
+        }
+        candidates.dedup();
+        'candidates: for (kind, tier, seed) in candidates {
+            let mut episode = Episode::new(self.set.get(kind), tier, seed);
+            let mut scenes = Vec::with_capacity(users.len());
+            for (i, user) in users.iter().enumerate() {
+                if episode.is_done() {
+                    continue 'candidates;
+                }
+                let text = render_scene(episode.observation());
+                if let Some(p) = user.picture
+                    && !self.shows(&episode, &text, p)
+                {
+                    continue 'candidates;
+                }
+                scenes.push(text);
+                if i == last {
+                    if let Some(p) = user.picture {
+                        let mut answered = self.answered.lock().unwrap_or_else(|e| e.into_inner());
+                        if answered.len() >= MAX_REMEMBERED {
+                            answered.clear();
+                        }
+                        answered.insert(p, (kind, tier, seed));
+                    }
+                    return Some(Found { scenes, ideal_belief: episode.ideal_belief() });
+                }
+                episode.step(crate::action::parse_action(replies[i]).action);
+            }
+        }
+        None
+    }
+}
