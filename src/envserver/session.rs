@@ -943,9 +943,10 @@ mod tests {
         use base64::Engine;
         let set = ScenarioSet::default();
         for kind in ScenarioKind::ALL {
-            for (view, mode) in
-                [(View::Image, crate::rundir::ObservationMode::Image), (View::Both, crate::rundir::ObservationMode::Both)]
-            {
+            for (view, mode) in [
+                (View::Image, crate::rundir::ObservationMode::Image),
+                (View::Both, crate::rundir::ObservationMode::Both),
+            ] {
                 let mut s = Session::default();
                 let episode = Episode::new(set.get(kind), Tier::T2, 5);
                 let obs = *episode.observation();

@@ -15,7 +15,7 @@ pub(crate) use csv::CsvExporter;
 pub(crate) use html::{HtmlExporter, esc};
 pub(crate) use json::JsonExporter;
 pub(crate) use markdown::MarkdownExporter;
-pub(crate) use table::{Cell, Column, Field, INCOMPLETE_MARK, Style, Table, f2, with_ci};
+pub(crate) use table::{Cell, Column, Field, INCOMPLETE_MARK, Style, Table, f2, p_value, with_ci};
 pub(crate) use text::TextExporter;
 
 /// Renders a whole table in one format.

@@ -334,7 +334,7 @@ pub(crate) fn with_ci(i: &Interval) -> String {
     }
 }
 
-fn p_value(p: f64) -> String {
+pub(crate) fn p_value(p: f64) -> String {
     if !p.is_finite() {
         "-".into()
     } else if p < 0.001 {

@@ -220,6 +220,18 @@ struct TranscriptOut {
     /// Made with the belief probe.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     p: bool,
+    /// Shown as pictures (`eval --observation image|both`): the stem of
+    /// each turn's picture file, `pictures/<transcript>-<turn>.png`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    g: Option<String>,
+}
+
+/// A picture the report writes beside report.html: its path under the
+/// report directory and the scene text it is drawn from.
+#[derive(Debug, Clone)]
+pub(crate) struct PictureFile {
+    pub(crate) path: String,
+    pub(crate) scene: String,
 }
 
 /// One episode's scalars: model, scenario, tier, seed, rollout, outcome
@@ -243,6 +255,10 @@ pub struct DrillData {
     strings: Vec<String>,
     episodes: Vec<EpisodeRow>,
     transcripts: Vec<TranscriptOut>,
+    /// The pictures of the transcripts shown as pictures, written as files
+    /// beside report.html (not embedded: tens of kilobytes each).
+    #[serde(skip)]
+    pub(crate) pictures: Vec<PictureFile>,
 }
 
 fn outcome_code(o: Outcome) -> u8 {
@@ -282,6 +298,7 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Resul
     let mut transcript_of: HashMap<(usize, usize), i32> = HashMap::new();
     let mut bytes = 0usize;
     let mut dropped = 0usize;
+    let mut pictures = Vec::new();
     for l in loaded {
         if bytes + table.bytes >= TRANSCRIPT_BUDGET {
             dropped += 1;
@@ -324,7 +341,17 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Resul
                 }
             })
             .collect();
-        let out = TranscriptOut { turns, ev: l.record.timing.evidence_turn, p: l.record.belief.is_some() };
+        let pictured = data.models[l.model].observation != crate::rundir::ObservationMode::Text;
+        let stem = pictured.then(|| format!("pictures/{}", transcripts.len()));
+        if let Some(stem) = &stem {
+            pictures.extend(
+                l.record
+                    .turns
+                    .iter()
+                    .map(|t| PictureFile { path: format!("{stem}-{}.png", t.turn), scene: t.scene.clone() }),
+            );
+        }
+        let out = TranscriptOut { turns, ev: l.record.timing.evidence_turn, p: l.record.belief.is_some(), g: stem };
         bytes += serde_json::to_string(&out).map_or(0, |s| s.len());
         transcript_of.insert((l.model, l.episode), transcripts.len() as i32);
         transcripts.push(out);
@@ -378,6 +405,7 @@ pub(crate) fn build(data: &Dataset, loaded: &[Loaded], per_cell: usize) -> Resul
         strings: table.strings,
         episodes,
         transcripts,
+        pictures,
     })
 }
 

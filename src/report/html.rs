@@ -215,6 +215,12 @@ const JS: &str = r##"
       tr.appendChild(el('td', t.t));
       tr.appendChild(el('td', t.time !== undefined ? f2(t.time) : ''));
       var sc = el('td', null, 'scene');
+      if (T.g) {
+        var img = el('img');
+        img.src = T.g + '-' + t.t + '.png'; img.width = 256; img.height = 256; img.loading = 'lazy';
+        img.alt = 'the picture the model was shown at turn ' + t.t;
+        sc.appendChild(img);
+      }
       var lines = n === 0 ? t.s : t.s.filter(function (i) { return !fixed[i]; });
       if (lines.length < t.s.length) sc.appendChild(el('div', '(' + (t.s.length - lines.length) + ' unchanged lines as in turn 1)', 'muted'));
       sc.appendChild(el('pre', lines.map(function (i) { return D.strings[i]; }).join('\n')));

@@ -14,7 +14,7 @@ use super::ReportError;
 use crate::par::par_map;
 use crate::rundir::lines::{read_infra_errors, read_rollouts};
 use crate::rundir::record::{EpisodeKey, EpisodeScalars};
-use crate::rundir::{ERRORS, ROLLOUTS, RUN_JSON, RunDirError, RunInfo, Selection};
+use crate::rundir::{ERRORS, ObservationMode, ROLLOUTS, RUN_JSON, RunDirError, RunInfo, Selection};
 use crate::scenario::Tier;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet, HashSet};
@@ -55,6 +55,10 @@ pub struct RunSource {
     pub dir: PathBuf,
     pub model: String,
     pub config_hash: String,
+    /// What the model was shown each turn (`eval --observation`); `text`
+    /// for runs without a run.json.
+    #[serde(skip_serializing_if = "is_text")]
+    pub observation: ObservationMode,
     /// Finished episodes read from rollouts.jsonl.
     pub episodes: usize,
     /// Complete lines that could not be read (ignored).
@@ -72,6 +76,10 @@ pub struct RunSource {
     pub(crate) infra_keys: Vec<EpisodeKey>,
 }
 
+fn is_text(o: &ObservationMode) -> bool {
+    *o == ObservationMode::Text
+}
+
 impl RunSource {
     pub fn rollouts_path(&self) -> PathBuf {
         self.dir.join(ROLLOUTS)
@@ -86,6 +94,10 @@ pub struct ModelData {
     pub label: String,
     pub model: String,
     pub config_hash: String,
+    /// What the model was shown each turn: one model id under two
+    /// observations is two models (`model (image)`), compared pair by pair
+    /// in the text-against-picture table.
+    pub observation: ObservationMode,
     /// Indices into [`Dataset::runs`].
     pub runs: Vec<usize>,
     /// Sorted by key; no key twice.
@@ -205,18 +217,20 @@ pub fn load(dirs: &[PathBuf]) -> Result<Dataset, ReportError> {
         return Err(ReportError::Empty("no run directory holds a readable episode".into()));
     }
     let groups = group_by_config(&data.runs);
-    let mut name_count: BTreeMap<&str, usize> = BTreeMap::new();
+    // A picture run is named by its observation: `gpt-4o (image)`.
+    let name = |run: &RunSource| match run.observation {
+        ObservationMode::Text => run.model.clone(),
+        seen => format!("{} ({seen})", run.model),
+    };
+    let mut name_count: BTreeMap<String, usize> = BTreeMap::new();
     for (_, g) in &groups {
-        *name_count.entry(data.runs[g[0]].model.as_str()).or_default() += 1;
+        *name_count.entry(name(&data.runs[g[0]])).or_default() += 1;
     }
     let mut models = Vec::with_capacity(groups.len());
     for (hash, group) in &groups {
-        let model = &data.runs[group[0]].model;
-        let label = if name_count[model.as_str()] > 1 {
-            format!("{model} ({})", &hash[..hash.len().min(8)])
-        } else {
-            model.clone()
-        };
+        let model = name(&data.runs[group[0]]);
+        let label =
+            if name_count[&model] > 1 { format!("{model} ({})", &hash[..hash.len().min(8)]) } else { model.clone() };
         models.push(merge_model(&data.runs, &per_run, hash, group, label)?);
     }
     data.models = models;
@@ -237,9 +251,9 @@ fn read_runs(dirs: &[PathBuf]) -> Result<(Dataset, Vec<Vec<Episode>>), ReportErr
     let mut per_run: Vec<Vec<Episode>> = Vec::with_capacity(dirs.len());
     for ((dir, info), p) in dirs.iter().zip(infos).zip(parsed) {
         let (p, (infra_lines, infra_keys)) = p?;
-        let (model, config_hash) = match (&info, &p.identity) {
-            (Some(info), _) => (info.config.model.clone(), info.config_hash.clone()),
-            (None, Some((m, h))) => (m.clone(), h.clone().unwrap_or_else(|| "unknown".into())),
+        let (model, config_hash, observation) = match (&info, &p.identity) {
+            (Some(info), _) => (info.config.model.clone(), info.config_hash.clone(), info.config.observation()),
+            (None, Some((m, h))) => (m.clone(), h.clone().unwrap_or_else(|| "unknown".into()), ObservationMode::Text),
             (None, None) => {
                 data.warnings.push(format!("{}: no run.json and no readable episode; skipped", dir.display()));
                 continue;
@@ -251,6 +265,7 @@ fn read_runs(dirs: &[PathBuf]) -> Result<(Dataset, Vec<Vec<Episode>>), ReportErr
             dir: dir.clone(),
             model,
             config_hash,
+            observation,
             episodes: p.episodes.len(),
             bad_lines: p.bad_lines.len(),
             torn_last_line: p.torn,
@@ -336,6 +351,7 @@ fn merge_model(
         label,
         model: runs[group[0]].model.clone(),
         config_hash: hash.to_string(),
+        observation: runs[group[0]].observation,
         runs: group.to_vec(),
         episodes,
         errored: errored.into_iter().collect(),

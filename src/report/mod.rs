@@ -15,6 +15,7 @@ pub mod drill;
 pub mod forecast;
 pub mod html;
 pub mod load;
+pub mod observations;
 pub mod paired;
 pub mod passk;
 pub mod pdf;
@@ -140,6 +141,10 @@ pub struct Report {
     pub outcomes: Vec<OutcomeRow>,
     pub costs: Vec<CostRow>,
     pub paired: Vec<PairRow>,
+    /// Text against picture: one model id under two observations, paired
+    /// per cell on the shared seeds.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub observations: Vec<observations::ObservationRow>,
     pub pass_k: Vec<PassKRow>,
     /// Belief-probe runs: one row per (model, scenario, tier).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -288,6 +293,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
     let outcomes = tables::outcome_rows(&ordered, &tiers);
     let costs = tables::cost_rows(&ordered);
     let paired = paired::all_pairs(&ordered, &tiers, opts.resamples, opts.seed);
+    let observation_rows = observations::rows(&ordered, &tiers);
     let pass_k = passk::pass_k_rows(&ordered, &tiers);
     let belief = probe_rows::rows::<crate::metrics::BeliefProbe>(&ordered);
     let forecast = forecast::rows(&ordered);
@@ -317,6 +323,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         outcomes: &outcomes,
         timing: &timing,
         forecast: &forecast,
+        observations: &observation_rows,
         refs: &refs,
         data: &data,
         transcripts: &transcripts,
@@ -350,6 +357,7 @@ pub fn build_from(mut data: Dataset, refs: References, opts: &ReportOptions) -> 
         outcomes,
         costs,
         paired,
+        observations: observation_rows,
         pass_k,
         belief,
         forecast,
@@ -373,6 +381,9 @@ impl Report {
         // One model: no pairs, no (empty) paired table.
         if !self.paired.is_empty() {
             t.push(paired::paired_table(&self.paired, &self.tiers, self.resamples));
+        }
+        if !self.observations.is_empty() {
+            t.push(observations::table(&self.observations));
         }
         if !self.pass_k.is_empty() {
             t.push(passk::pass_k_table(&self.pass_k, &self.tiers));
@@ -532,6 +543,19 @@ pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
             staged.push(crate::atomic::stage(&pdf_path, &pdf).map_err(io(&pdf_path))?);
         }
     }
+    // The drill-down's pictures, drawn again from each turn's scene text
+    // (the picture is a function of it), in parallel.
+    let pictures = crate::par::par_map(&built.drill.pictures, |p| {
+        let obs = crate::observation::parse_scene(&p.scene).map_err(|e| e.to_string())?;
+        crate::picture::png(&obs).map_err(|e| e.to_string())
+    });
+    for (p, png) in built.drill.pictures.iter().zip(pictures) {
+        let path = out.join(&p.path);
+        let png =
+            png.map_err(|e| ReportError::Io { path: path.display().to_string(), source: std::io::Error::other(e) })?;
+        std::fs::create_dir_all(out.join("pictures")).map_err(io(&out.join("pictures")))?;
+        staged.push(crate::atomic::stage(&path, &png).map_err(io(&path))?);
+    }
     let mut written = Vec::with_capacity(staged.len());
     for s in staged {
         let target = s.target.clone();
@@ -541,6 +565,13 @@ pub fn write(built: &Built, out: &Path) -> Result<Vec<PathBuf>, ReportError> {
     for entry in std::fs::read_dir(&plots_dir).map_err(io(&plots_dir))?.flatten() {
         let p = entry.path();
         if p.extension().is_some_and(|e| e == "svg" || e == "pdf") && !written.contains(&p) {
+            std::fs::remove_file(&p).map_err(io(&p))?;
+        }
+    }
+    let pictures_dir = out.join("pictures");
+    for entry in std::fs::read_dir(&pictures_dir).into_iter().flatten().flatten() {
+        let p = entry.path();
+        if p.extension().is_some_and(|e| e == "png") && !written.contains(&p) {
             std::fs::remove_file(&p).map_err(io(&p))?;
         }
     }

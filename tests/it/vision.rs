@@ -235,3 +235,65 @@ fn a_picture_run_resumes_and_refuses_another_observation() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("add --observation image"), "{}", stderr(&o));
 }
+
+/// A report holding one model id under two observations compares them
+/// per cell on the shared seeds (a table, report.json, a figure), names
+/// the picture run apart on the leaderboard, and shows each drill-down
+/// turn's picture: the very PNG the model was sent.
+#[test]
+fn the_report_compares_text_and_picture_and_shows_the_pictures() {
+    // The same model id, read well from the text and blindly from the
+    // picture (a server that always proceeds), so the cells differ.
+    let reader = Server::start(&["--policy", "expert"]);
+    let blind = Server::start(&["--policy", "always_proceed", "--probe-seeds", "0..12"]);
+    let out = scratch("vision-report");
+    let grid = ["--scenario", "all", "--tier", "3", "-n", "12"];
+    crate::support::ok(eval(&reader.base_url(), &out, "text", &grid));
+    let image: Vec<&str> = grid.iter().copied().chain(["--observation", "image"]).collect();
+    crate::support::ok(eval(&blind.base_url(), &out, "image", &image));
+    let rep = out.join("report");
+    let o = run({
+        let mut c = crate::support::negotiator();
+        c.args(["report", "--quiet", "--out"]).arg(&rep).arg(out.join("text")).arg(out.join("image"));
+        c
+    });
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = read_json(&rep.join("report.json"));
+    let labels: Vec<&str> =
+        report["leaderboard"]["rows"].as_array().unwrap().iter().map(|r| r["model"].as_str().unwrap()).collect();
+    assert_eq!(labels, ["scripted", "scripted (image)"]);
+    let rows = report["observations"].as_array().unwrap();
+    assert_eq!(rows.len(), crate::support::scenarios());
+    for r in rows {
+        assert_eq!((r["a"].as_str(), r["b"].as_str(), r["seeds"].as_u64()), (Some("text"), Some("image"), Some(12)));
+        let (a_only, b_only) = (r["a_only"].as_u64().unwrap(), r["b_only"].as_u64().unwrap());
+        let wins = |k: &str| (r[k]["estimate"].as_f64().unwrap() * 12.0).round() as u64;
+        assert_eq!(wins("success_a") - wins("success_b"), a_only - b_only, "{r}");
+        let p = r["mcnemar_p"].as_f64().unwrap();
+        assert_eq!(r["verdict"].as_str().unwrap().starts_with("text better"), p < 0.05, "{r}");
+    }
+    assert!(rows.iter().any(|r| r["verdict"].as_str().unwrap().starts_with("text better")), "{rows:?}");
+    let csv = std::fs::read_to_string(rep.join("observations.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + crate::support::scenarios());
+    let figure = std::fs::read_to_string(rep.join("plots/text_against_picture.svg")).unwrap();
+    assert!(figure.contains("scripted (image)") && !figure.contains("NaN"));
+    // The drill-down's pictures are the ones the image run sent.
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    assert!(html.contains("\"g\":\"pictures/"), "drill-down pictures");
+    let pictures: Vec<_> = std::fs::read_dir(rep.join("pictures")).unwrap().flatten().map(|e| e.path()).collect();
+    assert!(!pictures.is_empty());
+    let set = ScenarioSet::default();
+    let sent: Vec<Vec<u8>> = jsonl(&out.join("image/rollouts.jsonl"))
+        .iter()
+        .map(|line| {
+            let kind: ScenarioKind = line["scenario"].as_str().unwrap().parse().unwrap();
+            let first = Episode::new(set.get(kind), Tier::T3, line["seed"].as_u64().unwrap());
+            negotiator::picture::png(first.observation()).unwrap()
+        })
+        .collect();
+    let firsts: Vec<_> = pictures.iter().filter(|p| p.to_string_lossy().ends_with("-1.png")).collect();
+    assert!(firsts.len() >= crate::support::scenarios(), "{pictures:?}");
+    for p in firsts {
+        assert!(sent.contains(&std::fs::read(p).unwrap()), "{}", p.display());
+    }
+}

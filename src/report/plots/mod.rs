@@ -51,6 +51,8 @@ pub struct PlotInput<'a> {
     pub timing: &'a [super::timing::TimingRow],
     /// Forecast-probe rows (models, then the references); empty without.
     pub forecast: &'a [super::forecast::ForecastRow],
+    /// Text against picture rows; empty without a model under two observations.
+    pub observations: &'a [super::observations::ObservationRow],
     pub refs: &'a References,
     pub data: &'a Dataset,
     pub transcripts: &'a [Loaded],
@@ -155,6 +157,7 @@ pub(crate) fn assign_styles(labels: &[&str]) -> Vec<(&'static str, usize)> {
 
 pub(crate) fn all(input: &PlotInput) -> Vec<Plot> {
     let mut plots = vec![scenario_success::by_scenario(input), scenario_success::ranked_mean(input)];
+    plots.extend(scenario_success::text_against_picture(input));
     plots.push(correctness::plot(input));
     plots.push(tier_ladder::plot(input));
     plots.push(outcomes::plot(input));

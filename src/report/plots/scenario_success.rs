@@ -1,6 +1,6 @@
-//! Dot-and-whisker panels: per-scenario success with 95% CI whiskers, and
-//! the ranked mean; the expert ceiling and the `always_proceed` floor are
-//! vertical dashed lines in every panel.
+//! Dot-and-whisker panels: per-scenario success with 95% CI whiskers, the
+//! ranked mean, and text against picture per cell; the expert ceiling and
+//! the `always_proceed` floor are vertical dashed lines where they apply.
 
 use super::{CEILING_COLOR, FLOOR_COLOR, INK, Plot, PlotInput, Series, Style, Svg, rate_axis_x};
 use crate::export::{f2, with_ci};
@@ -131,4 +131,63 @@ pub(crate) fn ranked_mean(input: &PlotInput) -> Plot {
         &models,
         &[panel],
     )
+}
+
+/// One panel per (scenario, tier) cell with a model under two observations:
+/// success of each observation on the shared seeds (95% Wilson whiskers),
+/// the panel's title giving the McNemar p of its first pair.
+pub(crate) fn text_against_picture(input: &PlotInput) -> Option<Plot> {
+    let rows = input.observations;
+    if rows.is_empty() {
+        return None;
+    }
+    let mut labels: Vec<&str> = Vec::new();
+    for r in rows {
+        for l in [r.label_a.as_str(), r.label_b.as_str()] {
+            if !labels.contains(&l) {
+                labels.push(l);
+            }
+        }
+    }
+    let models: Vec<Series> = input.series().into_iter().filter(|s| labels.contains(&s.label.as_str())).collect();
+    let mut cells: Vec<(crate::scenario::ScenarioKind, crate::scenario::Tier)> = Vec::new();
+    for r in rows {
+        if !cells.contains(&(r.scenario, r.tier)) {
+            cells.push((r.scenario, r.tier));
+        }
+    }
+    let panels: Vec<Panel> = cells
+        .iter()
+        .map(|&(scenario, tier)| {
+            let here: Vec<_> = rows.iter().filter(|r| (r.scenario, r.tier) == (scenario, tier)).collect();
+            let value = |label: &str| {
+                here.iter().find_map(|r| {
+                    if r.label_a == label {
+                        Some(r.success_a)
+                    } else if r.label_b == label {
+                        Some(r.success_b)
+                    } else {
+                        None
+                    }
+                })
+            };
+            Panel {
+                title: format!("{scenario} t{tier}: p {}", crate::export::p_value(here[0].mcnemar_p)),
+                ceiling: None,
+                floor: None,
+                values: models.iter().map(|m| value(&m.label)).collect(),
+            }
+        })
+        .collect();
+    Some(dot_whisker(
+        input.style,
+        "text_against_picture",
+        "Text against picture",
+        "Per (scenario, tier): success of one model id under each observation (eval --observation) on the seeds both \
+         runs finished, with 95% Wilson whiskers; the panel title gives the exact McNemar p of the paired seeds (the \
+         table \"Text against picture\" has every pair)."
+            .into(),
+        &models,
+        &panels,
+    ))
 }
