@@ -186,3 +186,41 @@ def test_the_forecast_probe_is_asked_read_and_scored_by_env_server(
     system = log.samples[0].messages[0].text
     assert "if_it_lets_you_go_first" in system, system
 
+
+
+def test_inspect_shows_the_picture_and_plays_the_episodes_eval_plays(
+    env_server: str, expert_endpoint: str, tmp_path: Path
+) -> None:
+    # observation=image: env-server's picture goes to the model as Inspect's
+    # own image content (the served expert finds the episode from it), and
+    # the episodes are those `negotiator eval --observation image` plays.
+    os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
+    os.environ["NEGOTIATOR_API_KEY"] = "offline"
+    [log] = inspect_eval(
+        negotiator(seeds=2, tier="1", base_url=env_server, observation="image"),
+        model="openai-api/negotiator/expert",
+        log_dir=str(tmp_path / "logs"),
+        display="none",
+    )
+    ours = episodes(log)
+    assert log.samples is not None
+    first = log.samples[0].messages[1]
+    assert isinstance(first.content, list)
+    assert [type(c).__name__ for c in first.content] == ["ContentImage", "ContentText"]
+    assert first.content[1].text.startswith("Turn 1 of ")  # type: ignore[union-attr]
+    run = subprocess.run(
+        [BIN, "eval", "--base-url", expert_endpoint, "--model", "expert", "--scenario", "all", "--tier", "1",
+         "-n", "2", "--observation", "image", "--output", str(tmp_path / "eval"), "--run-name", "image"],
+        capture_output=True, text=True, check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    rollouts = [json.loads(line) for line in (tmp_path / "eval" / "image" / "rollouts.jsonl").read_text().splitlines()]
+    assert len(rollouts) == len(ours) > 0
+    for r in rollouts:
+        mine = ours[(r["scenario"], r["tier"], r["seed"])]
+        assert (mine["outcome"], mine["decisions"], mine["disposition"]) == (
+            r["outcome"], r["turns_taken"], r["disposition"],
+        ), r["scenario"]
+        assert mine["outcome"] == "success"
+    with pytest.raises(ValueError, match="unknown observation"):
+        negotiator(seeds=1, base_url=env_server, observation="video")

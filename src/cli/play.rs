@@ -36,9 +36,11 @@ pub struct PlayArgs {
     /// is. Part of the run's configuration.
     #[arg(long, value_name = "SECONDS")]
     pub turn_seconds: Option<f64>,
-    /// `text` (the scene text the model reads) or `plan` (adds a plan view:
-    /// more than the model sees, so its own leaderboard row).
-    #[arg(long, default_value = "text", value_parser = ["text", "plan"])]
+    /// `text` (the scene text the model reads), `plan` (adds a plan view:
+    /// more than the model sees, so its own leaderboard row) or `picture`
+    /// (what `eval --observation image` shows a model: each turn's picture
+    /// written to a file the screen names, and one line).
+    #[arg(long, default_value = "text", value_parser = ["text", "plan", "picture"])]
     pub view: String,
     /// Show each episode's outcome and the other road user's intent right
     /// after it (its own leaderboard row).
@@ -48,6 +50,27 @@ pub struct PlayArgs {
     /// nothing is kept.
     #[arg(long)]
     pub practice: bool,
+}
+
+/// `--view picture`: the run shows pictures as `eval --observation image`.
+struct PictureView {
+    settings: Option<crate::rundir::PictureSettings>,
+}
+
+impl PictureView {
+    fn of(view: &str) -> PictureView {
+        use crate::rundir::{ImageDetail, ObservationMode, PictureSettings};
+        let settings = (view == "picture").then_some(PictureSettings {
+            observation: ObservationMode::Image,
+            detail: ImageDetail::Auto,
+            history: None,
+        });
+        PictureView { settings }
+    }
+
+    fn observation(&self) -> crate::rundir::ObservationMode {
+        self.settings.map_or(crate::rundir::ObservationMode::Text, |p| p.observation)
+    }
 }
 
 impl PlayArgs {
@@ -80,19 +103,17 @@ impl PlayArgs {
             return Err(usage(format!("--seed: seeds from {} on are practice seeds", crate::play::PRACTICE_SEED_BASE)));
         }
         let scenario_set = ScenarioSet::default();
+        let pictures = PictureView::of(&self.view);
         let config = RunConfig {
             model: format!("human:{name}"),
             request_params: Default::default(),
             history: HistoryWindow::Full,
-            prompt_hash: crate::eval::prompt::prompt_hash(
-                crate::probe::Probe::NONE,
-                crate::rundir::ObservationMode::Text,
-            ),
+            prompt_hash: crate::eval::prompt::prompt_hash(crate::probe::Probe::NONE, pictures.observation()),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: "terminal".to_string(),
             probe: crate::probe::Probe::NONE,
             human: Some(HumanSettings { turn_seconds: self.turn_seconds, view: self.view.clone(), feedback }),
-            pictures: None,
+            pictures: pictures.settings,
         };
         let run_dir = if self.practice {
             std::env::temp_dir().join(format!("negotiator-practice-{}", std::process::id()))
@@ -132,6 +153,9 @@ impl PlayArgs {
             name: name.to_string(),
             feedback,
             plan_view,
+            picture_file: pictures
+                .settings
+                .map(|_| std::env::temp_dir().join(format!("negotiator-play-{}-picture.png", std::process::id()))),
             turn_seconds: self.turn_seconds,
             line_mode,
             practice: self.practice,

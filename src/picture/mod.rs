@@ -13,9 +13,10 @@
 //! own road and places its road users in its own file (`picture/<name>.rs`,
 //! this layer's part of the scenario registry).
 //!
-//! The picture is written as SVG and rasterised by `resvg` (pure Rust, the
-//! text in the bundled font), then encoded as PNG: the same bytes on every
-//! machine.
+//! The picture is recorded as shapes ([`shapes`]), painted straight onto a
+//! pixmap by tiny-skia (pure Rust, the text from the bundled font's
+//! outlines) and encoded as PNG: the same bytes on every machine. The same
+//! shapes are written as SVG by [`svg`].
 
 /// The pictures' part of the scenario registry: a drawing per scenario,
 /// in the registry's order.
@@ -30,10 +31,11 @@ macro_rules! drawings {
 crate::scenario::registry!(drawings);
 
 mod glyphs;
+mod shapes;
 
 use crate::observation::{Observation, Track};
 use crate::scenario::ScenarioKind;
-use resvg::usvg;
+use shapes::{Outline, Shape, n};
 use std::fmt::Write;
 
 /// The picture's side, in pixels.
@@ -49,6 +51,7 @@ const ROAD: &str = "#c8c8c8";
 const GROUND: &str = "#eef3e6";
 const MARKING: &str = "#ffffff";
 const ZONE: &str = "#f2b8b0";
+const WHITE: &str = "#ffffff";
 
 /// One scenario's drawing: where its view is, and how its road and its
 /// road users are drawn from a (rounded) observation.
@@ -114,15 +117,15 @@ pub struct Placed {
     pub fill: &'static str,
 }
 
-/// The SVG being drawn, in the view's metres, in layers: the road, then
-/// every trail, every road user, every arrow (so no trail covers a road
-/// user and no road user an arrow).
+/// The picture being drawn, in the view's metres, as shapes in layers:
+/// the road, then every trail, every road user, every arrow (so no trail
+/// covers a road user and no road user an arrow).
 pub(crate) struct Canvas {
     pub view: View,
-    body: String,
-    trails: String,
-    bodies: String,
-    arrows: String,
+    body: Vec<Shape>,
+    trails: Vec<Shape>,
+    bodies: Vec<Shape>,
+    arrows: Vec<Shape>,
     texts: Vec<glyphs::Text>,
     placed: Vec<Placed>,
 }
@@ -134,88 +137,63 @@ enum Layer {
     Body,
 }
 
-fn n(x: f64) -> String {
-    let x = if x.is_finite() { (x * 100.0).round() / 100.0 } else { 0.0 };
-    if x == 0.0 { "0".into() } else { format!("{x}") }
+/// The outline every road user's shape has (its opacity its fill's).
+fn road_user_outline(opacity: f64) -> Option<Outline> {
+    Some(Outline { colour: "#222222", opacity, width: 1.0 })
 }
 
 impl Canvas {
     fn new(view: View) -> Canvas {
         Canvas {
             view,
-            body: String::with_capacity(4096),
-            trails: String::new(),
-            bodies: String::new(),
-            arrows: String::new(),
+            body: Vec::with_capacity(32),
+            trails: Vec::new(),
+            bodies: Vec::new(),
+            arrows: Vec::new(),
             texts: Vec::new(),
             placed: Vec::new(),
         }
     }
 
     /// A filled rectangle between two plan corners (m).
-    pub fn rect(&mut self, a: (f64, f64), b: (f64, f64), fill: &str) {
+    pub fn rect(&mut self, a: (f64, f64), b: (f64, f64), fill: &'static str) {
         let (pa, pb) = (self.view.to_px(a), self.view.to_px(b));
         let (x, y) = (pa.0.min(pb.0), pa.1.min(pb.1));
         let (w, h) = ((pa.0 - pb.0).abs(), (pa.1 - pb.1).abs());
-        let _ =
-            write!(self.body, r#"<rect x="{}" y="{}" width="{}" height="{}" fill="{fill}"/>"#, n(x), n(y), n(w), n(h));
+        self.body.push(Shape::Rect { x, y, w, h, rx: 0.0, fill, opacity: 1.0, outline: None });
     }
 
-    /// A line between two plan points (m), `width` pixels wide.
-    pub fn line(&mut self, a: (f64, f64), b: (f64, f64), stroke: &str, width: f64, dash: Option<&str>) {
-        let (pa, pb) = (self.view.to_px(a), self.view.to_px(b));
-        let dash = dash.map(|d| format!(r#" stroke-dasharray="{d}""#)).unwrap_or_default();
-        let _ = write!(
-            self.body,
-            r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="{stroke}" stroke-width="{}"{dash}/>"#,
-            n(pa.0),
-            n(pa.1),
-            n(pb.0),
-            n(pb.1),
-            n(width)
-        );
+    /// A line between two plan points (m), `width` pixels wide, dashed
+    /// `(on, off)` pixels when asked.
+    pub fn line(&mut self, a: (f64, f64), b: (f64, f64), colour: &'static str, width: f64, dash: Option<(f64, f64)>) {
+        let (a, b) = (self.view.to_px(a), self.view.to_px(b));
+        self.body.push(Shape::Line { a, b, colour, width, dash });
     }
 
     /// A filled polygon through pixel points.
-    pub fn polygon(&mut self, points: &[(f64, f64)], fill: &str) {
-        let d: Vec<String> = points.iter().map(|p| format!("{} {}", n(p.0), n(p.1))).collect();
-        let _ = write!(self.body, r#"<path d="M{}Z" fill="{fill}"/>"#, d.join("L"));
+    pub fn polygon(&mut self, points: &[(f64, f64)], fill: &'static str) {
+        self.body.push(Shape::Polygon { points: points.to_vec(), fill });
     }
 
     /// A car's box (1.9 x 4.8 m) centred at `c` (m), nose along `heading`;
     /// `opacity` below 1 for a trail.
-    fn car_box(&mut self, layer: Layer, c: (f64, f64), heading: Heading, fill: &str, opacity: f64) {
+    fn car_box(&mut self, layer: Layer, c: (f64, f64), heading: Heading, fill: &'static str, opacity: f64) {
         let (hw, hl) = (0.5 * crate::sim::CAR_WIDTH, 0.5 * crate::sim::CAR_LENGTH);
         let (dx, dy) = match heading {
             Heading::Up => (hw, hl),
             Heading::Right => (hl, hw),
         };
         let (pa, pb) = (self.view.to_px((c.0 - dx, c.1 + dy)), self.view.to_px((c.0 + dx, c.1 - dy)));
-        let _ = write!(
-            self.layer(layer),
-            r##"<rect x="{}" y="{}" width="{}" height="{}" rx="2" fill="{fill}" fill-opacity="{}" stroke="#222" stroke-opacity="{}" stroke-width="1"/>"##,
-            n(pa.0),
-            n(pa.1),
-            n(pb.0 - pa.0),
-            n(pb.1 - pa.1),
-            n(opacity),
-            n(opacity)
-        );
+        let (x, y, w, h) = (pa.0, pa.1, pb.0 - pa.0, pb.1 - pa.1);
+        let shape = Shape::Rect { x, y, w, h, rx: 2.0, fill, opacity, outline: road_user_outline(opacity) };
+        self.layer(layer).push(shape);
     }
 
     /// A pedestrian's disc (0.6 m across) centred at `c` (m).
-    fn disc(&mut self, layer: Layer, c: (f64, f64), fill: &str, opacity: f64) {
-        let p = self.view.to_px(c);
+    fn disc(&mut self, layer: Layer, c: (f64, f64), fill: &'static str, opacity: f64) {
+        let c = self.view.to_px(c);
         let r = 0.5 * crate::sim::PEDESTRIAN_SIZE * self.view.px_per_m;
-        let _ = write!(
-            self.layer(layer),
-            r##"<circle cx="{}" cy="{}" r="{}" fill="{fill}" fill-opacity="{}" stroke="#222" stroke-opacity="{}" stroke-width="1"/>"##,
-            n(p.0),
-            n(p.1),
-            n(r),
-            n(opacity),
-            n(opacity)
-        );
+        self.layer(layer).push(Shape::Circle { c, r, fill, opacity, outline: road_user_outline(opacity) });
     }
 
     /// A velocity arrow from `c` (m): one second's travel at `v` (m/s)
@@ -226,30 +204,15 @@ impl Canvas {
         }
         let tip = (c.0 + unit.0 * v, c.1 + unit.1 * v);
         let (pc, pt) = (self.view.to_px(c), self.view.to_px(tip));
-        let _ = write!(
-            self.arrows,
-            r##"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="#111" stroke-width="2"/>"##,
-            n(pc.0),
-            n(pc.1),
-            n(pt.0),
-            n(pt.1)
-        );
+        self.arrows.push(Shape::Line { a: pc, b: pt, colour: "#111111", width: 2.0, dash: None });
         let (ux, uy) = ((pt.0 - pc.0) / (v.abs() * self.view.px_per_m), (pt.1 - pc.1) / (v.abs() * self.view.px_per_m));
         // The head is never longer than half the arrow (a slow road user's
         // arrow stays ahead of its centre).
         let l = (0.5 * v.abs() * self.view.px_per_m).min(7.0);
         let w = 0.55 * l;
         let back = (pt.0 - ux * l, pt.1 - uy * l);
-        let _ = write!(
-            self.arrows,
-            r##"<path d="M{} {}L{} {}L{} {}Z" fill="#111"/>"##,
-            n(pt.0),
-            n(pt.1),
-            n(back.0 - uy * w),
-            n(back.1 + ux * w),
-            n(back.0 + uy * w),
-            n(back.1 - ux * w)
-        );
+        let head = vec![pt, (back.0 - uy * w, back.1 + ux * w), (back.0 + uy * w, back.1 - ux * w)];
+        self.arrows.push(Shape::Polygon { points: head, fill: "#111111" });
     }
 
     /// The ego's car, centred at `c` (m), with its velocity arrow.
@@ -291,7 +254,7 @@ impl Canvas {
         self.placed.push(Placed { label: label.into(), centre_m: c, centre_px: self.view.to_px(c), along: unit, fill });
     }
 
-    fn layer(&mut self, layer: Layer) -> &mut String {
+    fn layer(&mut self, layer: Layer) -> &mut Vec<Shape> {
         match layer {
             Layer::Trail => &mut self.trails,
             Layer::Body => &mut self.bodies,
@@ -303,13 +266,29 @@ impl Canvas {
         for layer in
             [std::mem::take(&mut self.trails), std::mem::take(&mut self.bodies), std::mem::take(&mut self.arrows)]
         {
-            self.body.push_str(&layer);
+            self.body.extend(layer);
         }
     }
 
     /// A line of text from (x, y) (pixels, its baseline's start).
     fn text(&mut self, x: f64, y: f64, s: &str, size: f64, bold: bool) {
         self.texts.push(glyphs::Text { x, y, size, bold, text: s.to_string() });
+    }
+
+    /// A rectangle in pixels (the legend's and the key's).
+    fn rect_px(
+        &mut self,
+        (x, y, w, h): (f64, f64, f64, f64),
+        fill: &'static str,
+        opacity: f64,
+        outline: Option<Outline>,
+    ) {
+        self.body.push(Shape::Rect { x, y, w, h, rx: 0.0, fill, opacity, outline });
+    }
+
+    /// A line in pixels.
+    fn line_px(&mut self, a: (f64, f64), b: (f64, f64), colour: &'static str, width: f64) {
+        self.body.push(Shape::Line { a, b, colour, width, dash: None });
     }
 }
 
@@ -347,8 +326,9 @@ fn drawing(kind: ScenarioKind) -> Option<&'static Drawing> {
     kind.index().map(|i| DRAWINGS[i])
 }
 
-/// The picture of `obs` as SVG (512 x 512), and where it placed each road
-/// user; `None` for a scene of a scenario outside the registry.
+/// The picture of `obs` as shapes and text (512 x 512), and where it
+/// placed each road user; `None` for a scene of a scenario outside the
+/// registry.
 fn draw(obs: &Observation) -> Option<Drawn> {
     let drawing = drawing(obs.scenario())?;
     // The figures as the text prints them, so the picture shows no digit
@@ -356,15 +336,12 @@ fn draw(obs: &Observation) -> Option<Drawn> {
     let obs = obs.rounded();
     let size = f64::from(SIZE_PX);
     let mut c = Canvas::new(drawing.view);
-    let _ = write!(c.body, r#"<rect width="{size}" height="{size}" fill="{GROUND}"/>"#);
+    c.rect_px((0.0, 0.0, size, size), GROUND, 1.0, None);
     (drawing.draw)(&obs, &mut c);
     c.flatten();
     // The legend band: the text's own lines.
-    let _ = write!(c.body, r##"<rect width="{size}" height="{LEGEND_PX}" fill="#ffffff"/>"##);
-    let _ = write!(
-        c.body,
-        r##"<line x1="0" y1="{LEGEND_PX}" x2="{size}" y2="{LEGEND_PX}" stroke="#888" stroke-width="1"/>"##
-    );
+    c.rect_px((0.0, 0.0, size, LEGEND_PX), WHITE, 1.0, None);
+    c.line_px((0.0, LEGEND_PX), (size, LEGEND_PX), "#888888", 1.0);
     let header = format!(
         "{} - turn {} of {} ({} left), time {:.1} s",
         obs.scenario().scene_name(),
@@ -385,44 +362,26 @@ fn draw(obs: &Observation) -> Option<Drawn> {
     // The scale bar (10 m) and the key, at the bottom.
     let px = drawing.view.px_per_m;
     let base = size - 12.0;
-    let _ = write!(
-        c.body,
-        r##"<rect x="8" y="{}" width="{}" height="20" fill="#ffffff" fill-opacity="0.85"/><line x1="12" y1="{}" x2="{}" y2="{}" stroke="#111" stroke-width="3"/>"##,
-        n(base - 14.0),
-        n(10.0 * px + 40.0),
-        n(base),
-        n(12.0 + 10.0 * px),
-        n(base)
-    );
+    c.rect_px((8.0, base - 14.0, 10.0 * px + 40.0, 20.0), WHITE, 1.0, None);
+    c.line_px((12.0, base), (12.0 + 10.0 * px, base), "#111111", 3.0);
     c.text(16.0 + 10.0 * px, base + 4.0, "10 m", 12.0, false);
     let labels = obs.scenario().track_labels();
-    let key: Vec<(&str, &str)> = std::iter::once(("You", EGO_FILL))
+    let key: Vec<(&str, &'static str)> = std::iter::once(("You", EGO_FILL))
         .chain(labels.iter().enumerate().map(|(k, l)| (l.now, if k == 0 { FIRST_FILL } else { OTHER_FILL })))
         .collect();
     let mut ky = size - 12.0 - 16.0 * (key.len() as f64 - 1.0);
-    let _ = write!(
-        c.body,
-        r##"<rect x="{}" y="{}" width="150" height="{}" fill="#ffffff" fill-opacity="0.85"/>"##,
-        n(size - 158.0),
-        n(ky - 13.0),
-        n(16.0 * key.len() as f64 + 2.0)
-    );
+    c.rect_px((size - 158.0, ky - 13.0, 150.0, 16.0 * key.len() as f64 + 2.0), WHITE, 1.0, None);
     for (label, fill) in key {
-        let _ = write!(
-            c.body,
-            r##"<rect x="{}" y="{}" width="12" height="10" fill="{fill}" stroke="#222" stroke-width="1"/>"##,
-            n(size - 152.0),
-            n(ky - 9.0)
-        );
+        c.rect_px((size - 152.0, ky - 9.0, 12.0, 10.0), fill, 1.0, road_user_outline(1.0));
         c.text(size - 134.0, ky, label, 12.0, false);
         ky += 16.0;
     }
     Some(Drawn { shapes: c.body, texts: c.texts, placed: c.placed })
 }
 
-/// A picture drawn: its shapes (SVG elements), its text, its road users.
+/// A picture drawn: its shapes, its text, its road users.
 struct Drawn {
-    shapes: String,
+    shapes: Vec<Shape>,
     texts: Vec<glyphs::Text>,
     placed: Vec<Placed>,
 }
@@ -437,7 +396,10 @@ fn svg_of(shapes: &str) -> String {
 /// scenario outside the registry.
 pub fn svg(obs: &Observation) -> Option<String> {
     let drawn = draw(obs)?;
-    let mut shapes = drawn.shapes;
+    let mut shapes = String::with_capacity(8192);
+    for shape in &drawn.shapes {
+        shape.write_svg(&mut shapes);
+    }
     for t in &drawn.texts {
         let _ = write!(
             shapes,
@@ -524,32 +486,32 @@ pub enum PictureError {
     Draw(String),
 }
 
-/// The picture of `obs` as a 512 x 512 PNG: its shapes rasterised by
-/// `resvg`, its text drawn from the font's outlines, then encoded.
+/// The picture of `obs` as a 512 x 512 PNG: its shapes painted with
+/// tiny-skia, its text drawn from the font's outlines, then encoded.
 pub fn png(obs: &Observation) -> Result<Vec<u8>, PictureError> {
     let drawn = draw(obs).ok_or_else(|| PictureError::NoDrawing(obs.scenario().to_string()))?;
-    let tree = usvg::Tree::from_str(&svg_of(&drawn.shapes), &usvg::Options::default())
-        .map_err(|e| PictureError::Draw(e.to_string()))?;
     let mut pixmap = resvg::tiny_skia::Pixmap::new(SIZE_PX, SIZE_PX).ok_or(PictureError::Draw("no pixmap".into()))?;
-    resvg::render(&tree, resvg::tiny_skia::Transform::identity(), &mut pixmap.as_mut());
+    for shape in &drawn.shapes {
+        shape.paint(&mut pixmap);
+    }
     glyphs::draw(&mut pixmap, &drawn.texts);
     encode(&pixmap).map_err(|e| PictureError::Draw(e.to_string()))
 }
 
-/// The pixmap as an RGB PNG, fast: the picture is opaque (its ground is
-/// painted first), so the alpha channel is dropped, and flat colour
-/// compresses well with the fast deflate and the Sub filter.
+/// The pixmap as a PNG, fast: the picture is opaque (its ground is painted
+/// first), so its premultiplied pixels are its colours; flat colour rows
+/// compress well with the Up filter and the fast deflate (about 0.2 ms and
+/// 40 KB; converting to RGB first cost more than it saved).
 fn encode(pixmap: &resvg::tiny_skia::Pixmap) -> Result<Vec<u8>, png::EncodingError> {
-    let rgb: Vec<u8> = pixmap.data().chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
     let mut out = Vec::with_capacity(64 * 1024);
     let mut encoder = png::Encoder::new(&mut out, pixmap.width(), pixmap.height());
-    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
     encoder.set_compression(png::Compression::Fast);
-    encoder.set_filter(png::FilterType::Sub);
+    encoder.set_filter(png::FilterType::Up);
     encoder.set_adaptive_filter(png::AdaptiveFilterType::NonAdaptive);
     let mut writer = encoder.write_header()?;
-    writer.write_image_data(&rgb)?;
+    writer.write_image_data(pixmap.data())?;
     writer.finish()?;
     Ok(out)
 }

@@ -22,7 +22,7 @@ fn draw(obs: &Observation, c: &mut Canvas) {
     c.rect((far_x - 3.0, -100.0), (far_x, 100.0), SIDEWALK);
     c.rect((far_x, -100.0), (NEAR_KERB_X, 100.0), ROAD);
     let middle = 0.5 * (far_x + NEAR_KERB_X);
-    c.line((middle, -100.0), (middle, 100.0), MARKING, 2.0, Some("10 8"));
+    c.line((middle, -100.0), (middle, 100.0), MARKING, 2.0, Some((10.0, 8.0)));
     // The zebra, and the band a bumper on the crosswalk covers.
     let mut x = far_x + 0.25;
     while x < NEAR_KERB_X {

@@ -20,8 +20,8 @@ fn draw(obs: &Observation, c: &mut Canvas) {
     // crossing road.
     c.rect((-1.5 * LANE, near), (0.5 * LANE, -100.0), ROAD);
     c.rect((-100.0, near), (100.0, far), ROAD);
-    c.line((-0.5 * LANE, near), (-0.5 * LANE, -100.0), MARKING, 2.0, Some("10 8"));
-    c.line((-100.0, CROSSING_Y + 0.5 * LANE), (100.0, CROSSING_Y + 0.5 * LANE), MARKING, 2.0, Some("10 8"));
+    c.line((-0.5 * LANE, near), (-0.5 * LANE, -100.0), MARKING, 2.0, Some((10.0, 8.0)));
+    c.line((-100.0, CROSSING_Y + 0.5 * LANE), (100.0, CROSSING_Y + 0.5 * LANE), MARKING, 2.0, Some((10.0, 8.0)));
     c.rect((-0.5 * CAR_WIDTH, 0.0), (0.5 * CAR_WIDTH, CAR_WIDTH), ZONE);
     // The ego: its front bumper the scene's distance below the zone.
     let d = obs.scene.ego_to_conflict_m();

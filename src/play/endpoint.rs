@@ -55,26 +55,56 @@ pub(crate) enum ToScreen {
 pub(crate) struct EndpointState {
     pub screen: Sender<ToScreen>,
     pub turn_seconds: Option<f64>,
+    /// `--view picture`: where each turn's picture is written (the screen
+    /// names the file; an image viewer that reloads shows it).
+    pub picture_file: Option<std::path::PathBuf>,
 }
 
 pub(crate) fn router(state: Arc<EndpointState>) -> axum::Router {
-    axum::Router::new().route("/v1/chat/completions", axum::routing::post(chat)).with_state(state)
+    axum::Router::new()
+        .route("/v1/chat/completions", axum::routing::post(chat))
+        .layer(axum::extract::DefaultBodyLimit::max(64 << 20))
+        .with_state(state)
 }
 
-fn content_of<'a>(messages: &'a [Value], role: &str) -> Option<&'a str> {
-    messages.iter().rev().find(|m| m["role"] == role).and_then(|m| m["content"].as_str())
+/// The text of the last message of `role`: a string, or its text parts.
+fn content_of(messages: &[Value], role: &str) -> Option<String> {
+    let content = &messages.iter().rev().find(|m| m["role"] == role)?["content"];
+    match content {
+        Value::String(s) => Some(s.clone()),
+        Value::Array(parts) => Some(parts.iter().filter_map(|p| p["text"].as_str()).collect::<Vec<_>>().join("\n")),
+        _ => None,
+    }
+}
+
+/// The picture of the last user message (its PNG), if it has one.
+fn picture_of(messages: &[Value]) -> Option<Vec<u8>> {
+    use base64::Engine;
+    let content = &messages.iter().rev().find(|m| m["role"] == "user")?["content"];
+    let url = content.as_array()?.iter().find_map(|p| p["image_url"]["url"].as_str())?;
+    base64::engine::general_purpose::STANDARD.decode(url.strip_prefix("data:image/png;base64,")?).ok()
 }
 
 async fn chat(State(state): State<Arc<EndpointState>>, Json(body): Json<Value>) -> Response {
     let messages = body["messages"].as_array().map(Vec::as_slice).unwrap_or_default();
-    let Some(scene) = content_of(messages, "user") else {
+    let Some(mut scene) = content_of(messages, "user") else {
         return (StatusCode::BAD_REQUEST, Json(json!({"error": {"message": "no user message"}}))).into_response();
     };
+    // The picture goes to its file, whole or not at all, before the line
+    // naming it is shown.
+    if let (Some(path), Some(png)) = (&state.picture_file, picture_of(messages)) {
+        match crate::atomic::write(path, &png) {
+            Ok(()) => {
+                scene.push_str(&format!("\nPicture: {} (this turn's; it is rewritten every turn)", path.display()))
+            }
+            Err(e) => scene.push_str(&format!("\nPicture: could not be written to {} ({e})", path.display())),
+        }
+    }
     // The answer held when a timed turn runs out: the last one given.
-    let held = content_of(messages, "assistant").unwrap_or(FIRM_STOP).to_string();
+    let held = content_of(messages, "assistant").unwrap_or_else(|| FIRM_STOP.to_string());
     let (tx, rx) = oneshot::channel();
     let (shown_tx, shown_rx) = oneshot::channel();
-    let prompt = Prompt { scene: scene.to_string(), shown: Some(shown_tx), answer: tx };
+    let prompt = Prompt { scene, shown: Some(shown_tx), answer: tx };
     if state.screen.send(ToScreen::Prompt(prompt)).is_err() {
         return StatusCode::SERVICE_UNAVAILABLE.into_response();
     }

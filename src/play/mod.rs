@@ -48,6 +48,8 @@ pub struct PlayOptions {
     pub name: String,
     pub feedback: bool,
     pub plan_view: bool,
+    /// `--view picture`: the file each turn's picture is written to.
+    pub picture_file: Option<std::path::PathBuf>,
     pub turn_seconds: Option<f64>,
     /// Standard input is not a terminal: read one action per line.
     pub line_mode: bool,
@@ -97,11 +99,16 @@ pub fn run(options: PlayOptions) -> anyhow::Result<RunOutcome> {
     let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
     let listener = runtime.block_on(tokio::net::TcpListener::bind(("127.0.0.1", 0)))?;
     let port = listener.local_addr()?.port();
-    let state = Arc::new(EndpointState { screen: to_screen.clone(), turn_seconds: options.turn_seconds });
+    let state = Arc::new(EndpointState {
+        screen: to_screen.clone(),
+        turn_seconds: options.turn_seconds,
+        picture_file: options.picture_file.clone(),
+    });
     runtime.spawn(async move {
         let _ = axum::serve(listener, endpoint::router(state)).await;
     });
-    let PlayOptions { mut eval, name, feedback, plan_view, turn_seconds, line_mode, practice } = options;
+    let PlayOptions { mut eval, name, feedback, plan_view, turn_seconds, line_mode, practice, picture_file: _ } =
+        options;
     eval.client.base_url = format!("http://127.0.0.1:{port}/v1");
     eval.interrupt = Some(interrupt.clone());
     let run_dir = eval.run_dir.clone();

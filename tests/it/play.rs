@@ -200,3 +200,44 @@ fn a_person_plays_in_a_terminal_quits_and_resumes() {
     drop(tmux);
     report_reads(&dir);
 }
+
+/// `--view picture`: each turn shows the one line a model gets with its
+/// picture and names the file the picture was written to, which holds the
+/// very PNG `eval --observation image` sends; the run is a picture run.
+#[test]
+fn a_person_plays_from_the_picture() {
+    let dir = scratch("play-picture");
+    let kind = negotiator::scenario::ScenarioKind::ALL[0];
+    let mut child = negotiator()
+        .args(["play", "--name", "pic", "--view", "picture", "--scenario", kind.name(), "--tier", "1", "-n", "1"])
+        .arg("--output")
+        .arg(&dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // One answer, then the end of input (save and quit).
+    child.stdin.take().unwrap().write_all(b"y3\n").unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let shown = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(shown.contains("Turn 1 of ") && !shown.contains("Scene: "), "{shown}");
+    let path = shown
+        .lines()
+        .find_map(|l| l.strip_prefix("Picture: "))
+        .and_then(|l| l.split(" (").next())
+        .unwrap_or_else(|| panic!("{shown}"));
+    let png = std::fs::read(path).unwrap();
+    // The file holds the latest turn's picture: the second, after one answer.
+    let set = negotiator::scenario::ScenarioSet::default();
+    let mut episode = negotiator::episode::Episode::new(set.get(kind), negotiator::scenario::Tier::T1, 0);
+    episode.step(negotiator::action::Action::new(negotiator::action::Maneuver::Yield, 3.0 / 9.0));
+    assert_eq!(png, negotiator::picture::png(episode.observation()).unwrap());
+    let _ = std::fs::remove_file(path);
+    let info = run_json(&dir);
+    assert_eq!(
+        (info["config"]["human"]["view"].as_str(), info["config"]["pictures"]["observation"].as_str()),
+        (Some("picture"), Some("image"))
+    );
+}

@@ -16,7 +16,7 @@ from typing import Any
 import httpx
 from inspect_ai import Task, task
 from inspect_ai.dataset import MemoryDataset, Sample
-from inspect_ai.model import ChatMessageSystem, ChatMessageUser
+from inspect_ai.model import ChatMessageSystem, ChatMessageUser, ContentImage, ContentText
 from inspect_ai.scorer import Score, Target, grouped, mean, scorer, stderr
 from inspect_ai.solver import Generate, Solver, TaskState, solver
 
@@ -65,23 +65,45 @@ def samples(url: str, scenario: str, tier: str | int, seeds: int, seed: int) -> 
     return out
 
 
+# What each user turn shows, as `negotiator eval --observation` names it,
+# and the env-server view that carries it.
+OBSERVATION_VIEWS = {"text": "text", "image": "image", "both": "both"}
+
+
+def user_message(observation: dict[str, Any]) -> ChatMessageUser:
+    """One decision's user message: the scene text, or (views `image` and
+    `both`) env-server's picture as Inspect's own image content, then the
+    text env-server sends with it, in the order `negotiator eval` sends
+    them."""
+    image = observation.get("image")
+    if image is None:
+        return ChatMessageUser(content=observation["scene"])
+    return ChatMessageUser(
+        content=[ContentImage(image=f"data:image/png;base64,{image}"), ContentText(text=observation["scene"])]
+    )
+
+
 @solver
-def drive(base_url: str | None = None, probe: str = "none") -> Solver:
+def drive(base_url: str | None = None, probe: str = "none", observation: str = "text") -> Solver:
     """Play the sample's episode: reset env-server with its (scenario, tier,
-    seed) and `probe`, then per decision the scene as a user message,
-    `generate`, and the reply to env-server, until the episode ends."""
+    seed), `probe` and the view of `observation`, then per decision the
+    scene as a user message, `generate`, and the reply to env-server, until
+    the episode ends."""
+    if observation not in OBSERVATION_VIEWS:
+        raise ValueError(f"unknown observation {observation!r} (expected one of {', '.join(OBSERVATION_VIEWS)})")
+    view = OBSERVATION_VIEWS[observation]
 
     async def solve(state: TaskState, generate: Generate) -> TaskState:
         url = server_url(base_url)
         md = state.metadata
         async with httpx.AsyncClient(base_url=url, timeout=60) as http:
-            reset = {"scenario": md["scenario"], "tier": md["tier"], "seed": md["seed"], "view": "text", "probe": probe}
+            reset = {"scenario": md["scenario"], "tier": md["tier"], "seed": md["seed"], "view": view, "probe": probe}
             reply = await post(http, "/reset", reset)
             observation = reply["observation"]
             episode_id = observation["episode_id"]
             state.messages = [ChatMessageSystem(content=observation["instructions"])]
             while True:
-                state.messages.append(ChatMessageUser(content=observation["scene"]))
+                state.messages.append(user_message(observation))
                 state = await generate(state)
                 answer = state.output.completion
                 step = {"episode_id": episode_id, "action": {"reply": answer}}
@@ -145,6 +167,7 @@ def negotiator(
     seed: int = 0,
     base_url: str | None = None,
     probe: str = "none",
+    observation: str = "text",
 ) -> Task:
     """negotiator: read another road user's hidden intent from its motion and
     drive accordingly.
@@ -160,10 +183,13 @@ def negotiator(
             eval --probe forecast` does (env-server words the question,
             reads the forecast and scores it: the score's metadata carries
             `forecast`); `none` (the default) asks for the action only.
+        observation: `text` (the default), `image` (each decision as the
+            bird's-eye picture and one line, as `negotiator eval
+            --observation image`) or `both` (the picture beside the text).
     """
     url = server_url(base_url)
     return Task(
         dataset=MemoryDataset(samples(url, scenario, tier, seeds, seed), name="negotiator"),
-        solver=drive(url, probe),
+        solver=drive(url, probe, observation),
         scorer=episode_grades(),
     )
