@@ -15,6 +15,11 @@
 #   4. The forecast probe's cost: run 1 again with `--probe forecast` on both
 #      sides; eval's CPU (user + system) per decision turn against run 1's,
 #      the twin world included; target at most 2x.
+#   5. Pictures' cost: run 1 again with `--observation image` (every turn's
+#      picture drawn, encoded and sent with every earlier one), n
+#      PICTURE_SEEDS (default 50); eval's CPU per decision turn against run
+#      1's; the issue's target was at most 3x (docs/speed.md gives the bound
+#      a picture's own 0.75 ms puts on it).
 #
 # Usage: scripts/bench_eval.sh [OUT_DIR]   (default: a fresh temporary dir)
 # Needs: cargo, /usr/bin/time (Debian package `time`), python3.
@@ -97,5 +102,18 @@ plain_turns, plain_cpu, probe_turns, probe_cpu = int(sys.argv[1]), float(sys.arg
 plain, probe = plain_cpu / plain_turns * 1e6, probe_cpu / probe_turns * 1e6
 ratio = probe / plain
 print(f"eval CPU per turn: {plain:.0f} us without the probe, {probe:.0f} us with --probe forecast -> {ratio:.2f}x (target <= 2): {'PASS' if ratio <= 2 else 'FAIL'}")
+EOF
+PICTURE_SEEDS=${PICTURE_SEEDS:-50}
+echo "== 5: pictures' cost (latency 0, -c 64, all scenarios x tiers, n $PICTURE_SEEDS): eval's CPU per turn with --observation image against run 1's"
+start_serve pictures --latency-ms 0 --probe-seeds "0..$PICTURE_SEEDS"
+/usr/bin/time -v "$BIN" eval --base-url "$BASE_URL" --model expert --scenario all --tier all -n "$PICTURE_SEEDS" -c 64 \
+  --observation image --output "$OUT/pictures" --run-name run --quiet >"$OUT/pictures.summary" 2>"$OUT/pictures.time"
+stop_serve
+python3 - "$(inv "$OUT/overhead/run/run.json" turns)" "$(cpu "$OUT/overhead.time")" \
+  "$(inv "$OUT/pictures/run/run.json" turns)" "$(cpu "$OUT/pictures.time")" <<'EOF'
+import sys
+plain_turns, plain_cpu, pic_turns, pic_cpu = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
+plain, pic = plain_cpu / plain_turns * 1e6, pic_cpu / pic_turns * 1e6
+print(f"eval CPU per turn: {plain:.0f} us with text, {pic:.0f} us with --observation image -> {pic / plain:.1f}x (issue's target <= 3x: {'PASS' if pic <= 3 * plain else 'NOT MET'})")
 EOF
 echo "outputs in $OUT"

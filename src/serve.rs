@@ -341,6 +341,7 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     // Only user messages carry scenes; a scene wrapped in JSON is unwrapped.
     let mut scenes: Vec<String> = text("user").into_iter().map(|t| scene_inside(&t).unwrap_or(t)).collect();
     let mut found_belief = None;
+    let mut found_keys = Vec::new();
     if pictured && scenes.last().is_none_or(|s| parse_scene(s).is_err()) {
         // The scene is a picture: find its episode, and answer from the
         // texts its pictures were drawn from.
@@ -348,10 +349,15 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
             .iter()
             .map(|m| pictured::UserTurn { picture: content_picture(&m.content).map(pictured::picture_hash) })
             .collect();
-        match state.pictures.find(&turns, &replies.iter().map(String::as_str).collect::<Vec<_>>()) {
-            Some(found) => {
-                scenes = found.scenes;
-                found_belief = Some(found.ideal_belief);
+        // Several episodes match only while every picture shown has been
+        // the same in each (so has every answer): each is remembered, the
+        // first answers.
+        let mut found = state.pictures.find(&turns, &replies.iter().map(String::as_str).collect::<Vec<_>>());
+        found_keys = found.iter().map(|f| f.key).collect();
+        match found.drain(..).next() {
+            Some(first) => {
+                scenes = first.scenes;
+                found_belief = Some(first.ideal_belief);
             }
             None => {
                 state.stats.unidentified_episodes.fetch_add(1, Ordering::Relaxed);
@@ -385,7 +391,15 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
         let f = forecaster.build().forecast(&obs);
         content["forecast"] = json!({ LETS_YOU_GO_KEY: f.lets_you_go, DOES_NOT_KEY: f.does_not });
     }
-    (content.to_string(), answer.scene)
+    let content = content.to_string();
+    if !found_keys.is_empty() {
+        let mut answered: Vec<&str> = replies.iter().map(String::as_str).collect();
+        answered.push(&content);
+        for key in found_keys {
+            state.pictures.expect_next(key, &answered);
+        }
+    }
+    (content, answer.scene)
 }
 
 /// Malformed replies for `--garbage-rate`: each is a parse error for

@@ -70,7 +70,7 @@ impl SceneMessage {
         };
         let image = Arc::new(match draw {
             true => ImageUrl::png(&crate::picture::png(obs)?, p.detail.name()),
-            false => ImageUrl { url: String::new(), detail: p.detail.name() },
+            false => ImageUrl::new("", p.detail.name()),
         });
         let (text, placeholder) = match p.observation {
             ObservationMode::Both => (scene.clone(), scene.clone()),

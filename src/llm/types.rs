@@ -22,20 +22,37 @@ pub struct ChatMessage {
     pub image: Option<std::sync::Arc<ImageUrl>>,
 }
 
-/// An `image_url` content part's body: the picture as a data URL and the
-/// detail the provider should look at it with.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ImageUrl {
-    pub url: String,
-    pub detail: &'static str,
+/// An `image_url` content part's body, `{"url": ..., "detail": ...}`: the
+/// picture as a data URL and the detail the provider should look at it
+/// with. Written as JSON once: every later request of the episode carries
+/// it again (tens of kilobytes) and copies it as it is, unscanned.
+#[derive(Debug, Clone)]
+pub struct ImageUrl(Box<serde_json::value::RawValue>);
+
+impl PartialEq for ImageUrl {
+    fn eq(&self, other: &ImageUrl) -> bool {
+        self.0.get() == other.0.get()
+    }
+}
+
+impl Serialize for ImageUrl {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.0.serialize(s)
+    }
 }
 
 impl ImageUrl {
+    /// `url` at `detail`.
+    pub fn new(url: &str, detail: &'static str) -> ImageUrl {
+        let json = serde_json::json!({ "url": url, "detail": detail }).to_string();
+        ImageUrl(serde_json::value::RawValue::from_string(json).expect("an object is JSON"))
+    }
+
     /// A PNG as a `data:image/png;base64,` URL.
     pub fn png(bytes: &[u8], detail: &'static str) -> ImageUrl {
         use base64::Engine;
         let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
-        ImageUrl { url: format!("data:image/png;base64,{b64}"), detail }
+        ImageUrl::new(&format!("data:image/png;base64,{b64}"), detail)
     }
 }
 

@@ -13,7 +13,7 @@
 //! own road and places its road users in its own file (`picture/<name>.rs`,
 //! this layer's part of the scenario registry).
 //!
-//! The picture is recorded as shapes ([`shapes`]), painted straight onto a
+//! The picture is recorded as shapes (`shapes.rs`), painted straight onto a
 //! pixmap by tiny-skia (pure Rust, the text from the bundled font's
 //! outlines) and encoded as PNG: the same bytes on every machine. The same
 //! shapes are written as SVG by [`svg`].

@@ -12,10 +12,11 @@
 //! what the pictures were drawn from.
 //!
 //! With `--image-history K` the first turns lose their picture, so the
-//! episode of every answered conversation is remembered by the hash of its
-//! last picture, and a later request is found from any picture it still
-//! holds. Each text's picture hash is cached, so a request draws at most
-//! one new picture per candidate.
+//! episode of every answered conversation is remembered by the hash of the
+//! picture its next request will show (drawn once the answer is known),
+//! and a later request is found from any picture it holds. Each text's
+//! picture hash is cached, so a request draws at most one new picture per
+//! candidate.
 
 use crate::episode::Episode;
 use crate::hash::fnv1a64;
@@ -54,6 +55,7 @@ pub(crate) fn picture_usage(pictures: &[(&str, Option<&str>)]) -> (u64, usize) {
 /// The episode found behind a pictured conversation: its scene texts, the
 /// last one the scene to answer, and the ideal observer's belief there.
 pub(crate) struct Found {
+    pub(crate) key: (ScenarioKind, Tier, u64),
     pub(crate) scenes: Vec<String>,
     pub(crate) ideal_belief: f64,
 }
@@ -66,14 +68,20 @@ pub(crate) struct PictureIndex {
     by_first_picture: OnceLock<HashMap<u64, Vec<Key>>>,
     /// Scene-text hash -> its picture's hash (a picture is drawn from the text's figures).
     drawn: Mutex<HashMap<u64, u64>>,
-    /// Last picture of an answered conversation -> its episode.
-    answered: Mutex<HashMap<u64, Key>>,
+    /// (the picture a conversation's next request will show, the answer
+    /// just given) -> the episodes it may be.
+    answered: Mutex<HashMap<u64, Vec<Key>>>,
 }
 
 impl std::fmt::Debug for PictureIndex {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "PictureIndex(seeds {:?})", self.seeds)
     }
+}
+
+/// The key of a picture shown after `answer`.
+fn after(picture: u64, answer: &str) -> u64 {
+    crate::hash::splitmix64(picture ^ fnv1a64(answer.trim()))
 }
 
 fn png_hash(episode: &Episode) -> u64 {
@@ -136,22 +144,72 @@ impl PictureIndex {
         drawn == picture
     }
 
-    /// The episode behind a conversation of `users` turns with `replies`
-    /// between them, or None when no candidate shows its every picture.
-    pub(crate) fn find(&self, users: &[UserTurn], replies: &[&str]) -> Option<Found> {
-        let last = users.len().checked_sub(1)?;
+    /// Remember the episode `key` by the picture its next request will
+    /// show: the one after `replies` (the conversation's, then this
+    /// answer). With `--image-history 1` no earlier picture is left in that
+    /// request to find it by. Drawing it here costs nothing more: the next
+    /// request's check finds it in the cache.
+    pub(crate) fn expect_next(&self, key: Key, replies: &[&str]) {
+        let Some(&answer) = replies.last() else { return };
+        let (kind, tier, seed) = key;
+        let mut episode = Episode::new(self.set.get(kind), tier, seed);
+        for reply in replies {
+            if episode.is_done() {
+                return;
+            }
+            episode.step(crate::action::parse_action(reply).action);
+        }
+        if episode.is_done() {
+            return;
+        }
+        let text = render_scene(episode.observation());
+        let text_hash = fnv1a64(&text);
+        let known = self.drawn.lock().unwrap_or_else(|e| e.into_inner()).get(&text_hash).copied();
+        let picture = known.unwrap_or_else(|| {
+            let drawn = png_hash(&episode);
+            let mut cache = self.drawn.lock().unwrap_or_else(|e| e.into_inner());
+            if cache.len() >= MAX_REMEMBERED {
+                cache.clear();
+            }
+            cache.insert(text_hash, drawn);
+            drawn
+        });
+        let mut answered = self.answered.lock().unwrap_or_else(|e| e.into_inner());
+        if answered.len() >= MAX_REMEMBERED {
+            answered.clear();
+        }
+        let keys = answered.entry(after(picture, answer)).or_default();
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+
+    /// The episodes a conversation of `users` turns with `replies` between
+    /// them may be: every candidate that shows its every picture (more than
+    /// one only while their pictures have been the same; they are told
+    /// apart by the next picture that differs). Empty when none does.
+    pub(crate) fn find(&self, users: &[UserTurn], replies: &[&str]) -> Vec<Found> {
+        let mut found = Vec::new();
+        let Some(last) = users.len().checked_sub(1) else { return found };
         if replies.len() < last {
-            return None;
+            return found;
         }
         let mut candidates: Vec<Key> = Vec::new();
         if let Some(first) = users[0].picture {
             candidates.extend(self.first_pictures().get(&first).into_iter().flatten());
         }
         {
+            // A picture is looked up with the answer before it: the same
+            // picture in two episodes is told apart by what was answered.
             let answered = self.answered.lock().unwrap_or_else(|e| e.into_inner());
-            candidates.extend(users.iter().filter_map(|u| u.picture.and_then(|p| answered.get(&p))));
+            for (i, user) in users.iter().enumerate().skip(1) {
+                if let (Some(p), Some(reply)) = (user.picture, replies.get(i - 1)) {
+                    candidates.extend(answered.get(&after(p, reply)).into_iter().flatten());
+                }
+            }
         }
-        candidates.dedup();
+        let mut seen = std::collections::HashSet::new();
+        candidates.retain(|k| seen.insert(*k));
         'candidates: for (kind, tier, seed) in candidates {
             let mut episode = Episode::new(self.set.get(kind), tier, seed);
             let mut scenes = Vec::with_capacity(users.len());
@@ -167,18 +225,12 @@ impl PictureIndex {
                 }
                 scenes.push(text);
                 if i == last {
-                    if let Some(p) = user.picture {
-                        let mut answered = self.answered.lock().unwrap_or_else(|e| e.into_inner());
-                        if answered.len() >= MAX_REMEMBERED {
-                            answered.clear();
-                        }
-                        answered.insert(p, (kind, tier, seed));
-                    }
-                    return Some(Found { scenes, ideal_belief: episode.ideal_belief() });
+                    found.push(Found { key: (kind, tier, seed), scenes, ideal_belief: episode.ideal_belief() });
+                    continue 'candidates;
                 }
                 episode.step(crate::action::parse_action(replies[i]).action);
             }
         }
-        None
+        found
     }
 }

@@ -35,8 +35,9 @@ fn episodes(dir: &Path) -> BTreeMap<(String, u64, u64), (Value, Vec<Value>)> {
 
 /// The served expert answers a conversation of pictures as it answers the
 /// text, seed for seed and action for action, in every cell: it finds the
-/// episode from the pictures' bytes. `both` plays the same episodes, and
-/// the dry run's token count is what the server reports.
+/// episode from the pictures' bytes, with every picture kept or only the
+/// last. `both` plays the same episodes, and the dry run's token count is
+/// what the server reports.
 #[test]
 fn eval_with_pictures_against_the_served_expert_plays_the_text_runs_episodes() {
     let server = Server::start(&["--policy", "expert", "--probe-seeds", "0..3"]);
@@ -47,11 +48,16 @@ fn eval_with_pictures_against_the_served_expert_plays_the_text_runs_episodes() {
     crate::support::ok(eval(&server.base_url(), &out, "image", &image));
     let both: Vec<&str> = grid.iter().copied().chain(["--observation", "both", "--image-history", "2"]).collect();
     crate::support::ok(eval(&server.base_url(), &out, "both", &both));
+    // With one picture per request, no earlier picture is left to find the
+    // episode by: serve remembers it by the picture it expects next.
+    let last_only: Vec<&str> = grid.iter().copied().chain(["--observation", "image", "--image-history", "1"]).collect();
+    crate::support::ok(eval(&server.base_url(), &out, "last-only", &last_only));
     let text = episodes(&out.join("text"));
     assert_eq!(text.len(), 3 * crate::support::cells());
     assert!(text.values().all(|(outcome, _)| outcome == "success"), "the expert wins every text episode");
     assert_eq!(episodes(&out.join("image")), text);
     assert_eq!(episodes(&out.join("both")), text);
+    assert_eq!(episodes(&out.join("last-only")), text);
     // Every cell won, as in the text run.
     let summary = read_json(&out.join("image/summary.json"));
     for cell in summary["cells"].as_array().unwrap() {
@@ -296,4 +302,23 @@ fn the_report_compares_text_and_picture_and_shows_the_pictures() {
     for p in firsts {
         assert!(sent.contains(&std::fs::read(p).unwrap()), "{}", p.display());
     }
+}
+
+/// Episodes whose first pictures are the same bytes (seeds 31 and 44 of
+/// the crosswalk's tiers 2 and 3 among them) are told apart by the first
+/// picture that differs, even when each request holds only its own
+/// picture (`--image-history 1`): serve keeps every episode a
+/// conversation may be, and the served expert plays the text run's
+/// episodes, seed for seed.
+#[test]
+fn episodes_with_the_same_first_picture_are_told_apart() {
+    let server = Server::start(&["--policy", "expert", "--probe-seeds", "30..46"]);
+    let out = scratch("vision-ambiguous");
+    let grid = ["--scenario", "all", "--tier", "all", "--seed", "30", "-n", "16"];
+    crate::support::ok(eval(&server.base_url(), &out, "text", &grid));
+    let last_only: Vec<&str> = grid.iter().copied().chain(["--observation", "image", "--image-history", "1"]).collect();
+    crate::support::ok(eval(&server.base_url(), &out, "last-only", &last_only));
+    let text = episodes(&out.join("text"));
+    assert_eq!(text.len(), 16 * crate::support::cells());
+    assert_eq!(episodes(&out.join("last-only")), text);
 }
