@@ -440,8 +440,8 @@ pub fn prompt_paragraph(kind: ScenarioKind, with_text: bool) -> String {
         "\n\nEach turn shows the scene as a {SIZE_PX} x {SIZE_PX} bird's-eye picture, to scale at {} pixels per metre \
          (the scale bar is 10 m). Top band: the turn and time, then your \"You:\" line and your last action, as words. \
          Below, the road seen from above: you are the blue box (cars are 1.9 x 4.8 m), {}; pedestrians are 0.6 m discs. \
-         Each road user's last 2 s are a fading trail of dots at the history's instants, and its arrow is where its \
-         current speed takes it in one second.",
+         Each road user's last 2 s are fading copies of it at the history's instants (the faintest the oldest), and \
+         its arrow is where its current speed takes it in one second.",
         n(view.px_per_m),
         others.join(", ")
     );
