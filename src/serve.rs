@@ -342,7 +342,10 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     let mut scenes: Vec<String> = text("user").into_iter().map(|t| scene_inside(&t).unwrap_or(t)).collect();
     let mut found_belief = None;
     let mut found_keys = Vec::new();
-    if pictured && scenes.last().is_none_or(|s| parse_scene(s).is_err()) {
+    // A picture stands in for the scene (`--observation image`); under
+    // `both` the text is there and is read as always.
+    let by_picture = pictured && scenes.last().is_none_or(|s| parse_scene(s).is_err());
+    if by_picture {
         // The scene is a picture: find its episode, and answer from the
         // texts its pictures were drawn from.
         let turns: Vec<pictured::UserTurn> = users
@@ -367,7 +370,7 @@ fn reply_content(state: &ServeState, messages: &[MessageIn]) -> (String, SceneRe
     let scene = scenes.last().map_or("", String::as_str);
     let earlier: Vec<&str> = scenes[..scenes.len().saturating_sub(1)].iter().map(String::as_str).collect();
     let ideal = cfg.belief.as_ref().and_then(|index| {
-        if pictured {
+        if by_picture {
             return found_belief;
         }
         let ideal = index.ideal_belief(

@@ -322,3 +322,27 @@ fn episodes_with_the_same_first_picture_are_told_apart() {
     assert_eq!(text.len(), 16 * crate::support::cells());
     assert_eq!(episodes(&out.join("last-only")), text);
 }
+
+/// The belief probe through pictures: the served expert states the ideal
+/// observer's belief at every turn whether the scene came as a picture
+/// (found from its bytes) or as a picture beside the text (read as text).
+#[test]
+fn the_served_expert_states_the_ideal_belief_through_pictures() {
+    let server = Server::start(&["--policy", "expert", "--probe", "belief", "--probe-seeds", "0..2"]);
+    let out = scratch("vision-belief");
+    for observation in ["image", "both"] {
+        let args = ["--scenario", "all", "--tier", "all", "-n", "2", "--probe", "belief", "--observation", observation];
+        crate::support::ok(eval(&server.base_url(), &out, observation, &args));
+        let lines = jsonl(&out.join(observation).join("rollouts.jsonl"));
+        assert_eq!(lines.len(), 2 * crate::support::cells());
+        for line in &lines {
+            for turn in line["turns"].as_array().unwrap() {
+                assert_eq!(
+                    turn["belief"], turn["ideal_belief"],
+                    "{observation}: {} turn {}",
+                    line["scenario"], turn["turn"]
+                );
+            }
+        }
+    }
+}
