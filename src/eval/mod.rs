@@ -95,8 +95,7 @@ impl EvalOptions {
     /// for a text run).
     pub fn tokens_per_picture(&self) -> u64 {
         let Some(p) = self.config.pictures else { return 0 };
-        const OPENAI_TILES: rundir::ImageTokenRule = rundir::ImageTokenRule::Tiles { base: 85, per_tile: 170, low: 85 };
-        let rule = self.pricing.as_ref().and_then(|p| p.image_tokens).unwrap_or(OPENAI_TILES);
+        let rule = self.pricing.as_ref().and_then(|p| p.image_tokens).unwrap_or(rundir::ImageTokenRule::OPENAI_TILES);
         rule.tokens(crate::picture::SIZE_PX, crate::picture::SIZE_PX, p.detail)
     }
 

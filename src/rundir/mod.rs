@@ -474,6 +474,11 @@ pub enum ImageTokenRule {
 }
 
 impl ImageTokenRule {
+    /// OpenAI's tiles for gpt-4o and gpt-4.1: what a picture is counted at
+    /// when the prices file has no rule for the model (and what `serve`
+    /// reports).
+    pub const OPENAI_TILES: ImageTokenRule = ImageTokenRule::Tiles { base: 85, per_tile: 170, low: 85 };
+
     /// The input tokens of one `width` x `height` picture sent at `detail`.
     pub fn tokens(&self, width: u32, height: u32, detail: ImageDetail) -> u64 {
         let (w, h) = (f64::from(width), f64::from(height));

@@ -43,7 +43,7 @@ pub(crate) fn picture_hash(data_url: &str) -> u64 {
 /// 512 x 512 picture (85 at detail low, 255 otherwise), and the bytes of
 /// their data URLs (which the byte estimate of the text leaves out).
 pub(crate) fn picture_usage(pictures: &[(&str, Option<&str>)]) -> (u64, usize) {
-    let rule = crate::rundir::ImageTokenRule::Tiles { base: 85, per_tile: 170, low: 85 };
+    let rule = crate::rundir::ImageTokenRule::OPENAI_TILES;
     let side = crate::picture::SIZE_PX;
     pictures.iter().fold((0, 0), |(tokens, bytes), (url, detail)| {
         let detail =
@@ -129,11 +129,12 @@ impl PictureIndex {
         })
     }
 
-    /// Whether `episode`'s picture now is the one hashed `picture`.
-    fn shows(&self, episode: &Episode, text: &str, picture: u64) -> bool {
+    /// The hash of `episode`'s picture now (`text` its scene text): from
+    /// the cache, or drawn once and cached.
+    fn picture_hash(&self, episode: &Episode, text: &str) -> u64 {
         let text_hash = fnv1a64(text);
         if let Some(&known) = self.drawn.lock().unwrap_or_else(|e| e.into_inner()).get(&text_hash) {
-            return known == picture;
+            return known;
         }
         let drawn = png_hash(episode);
         let mut cache = self.drawn.lock().unwrap_or_else(|e| e.into_inner());
@@ -141,7 +142,7 @@ impl PictureIndex {
             cache.clear();
         }
         cache.insert(text_hash, drawn);
-        drawn == picture
+        drawn
     }
 
     /// Remember the episode `key` by the picture its next request will
@@ -162,18 +163,7 @@ impl PictureIndex {
         if episode.is_done() {
             return;
         }
-        let text = render_scene(episode.observation());
-        let text_hash = fnv1a64(&text);
-        let known = self.drawn.lock().unwrap_or_else(|e| e.into_inner()).get(&text_hash).copied();
-        let picture = known.unwrap_or_else(|| {
-            let drawn = png_hash(&episode);
-            let mut cache = self.drawn.lock().unwrap_or_else(|e| e.into_inner());
-            if cache.len() >= MAX_REMEMBERED {
-                cache.clear();
-            }
-            cache.insert(text_hash, drawn);
-            drawn
-        });
+        let picture = self.picture_hash(&episode, &render_scene(episode.observation()));
         let mut answered = self.answered.lock().unwrap_or_else(|e| e.into_inner());
         if answered.len() >= MAX_REMEMBERED {
             answered.clear();
@@ -219,7 +209,7 @@ impl PictureIndex {
                 }
                 let text = render_scene(episode.observation());
                 if let Some(p) = user.picture
-                    && !self.shows(&episode, &text, p)
+                    && self.picture_hash(&episode, &text) != p
                 {
                     continue 'candidates;
                 }
