@@ -8,7 +8,8 @@
 //! `Episode` and the same parser `eval` uses, and every scene the log shows
 //! must be the scene this build renders at that turn (a log from another
 //! version of the benchmark, or another scenario file, is refused rather
-//! than misread). The grades, the evidence timing and the hidden
+//! than misread). A picture run's (`-T observation=image|both`) pictures,
+//! when the log keeps them, must be the bytes this build draws. The grades, the evidence timing and the hidden
 //! disposition are therefore this build's own; the log's score must agree
 //! with them. What only the log knows is kept as the log states it: the
 //! model as Inspect names it, its generate config, per-turn usage and
@@ -21,14 +22,16 @@
 
 use crate::action::parse_action;
 use crate::episode::Episode;
-use crate::instructions::SYSTEM_PROMPT;
+use crate::instructions::{SYSTEM_PROMPT, prompt_hash, system_prompt};
 use crate::llm::Usage;
 use crate::llm::types::{CompletionTokensDetails, PromptTokensDetails};
 use crate::observation::render_scene;
+use crate::probe::Probe;
 use crate::rundir::record::{EpisodeKey, InfraErrorRecord, Provenance, RolloutRecord, TurnRecord};
 use crate::rundir::{
-    ERRORS, Endpoint, HistoryWindow, ImportSource, Invocation, ROLLOUTS, RUN_JSON, RunConfig, RunInfo, RunStatus,
-    SCHEMA_VERSION, Selection, Settings, Shard, Totals,
+    ERRORS, Endpoint, HistoryWindow, ImageDetail, ImageTokenRule, ImportSource, Invocation, ObservationMode,
+    PictureSettings, ROLLOUTS, RUN_JSON, RunConfig, RunInfo, RunStatus, SCHEMA_VERSION, Selection, Settings, Shard,
+    Totals,
 };
 use crate::scenario::{ScenarioKind, ScenarioSet, Tier};
 use serde::Deserialize;
@@ -79,35 +82,40 @@ pub fn read(path: &Path) -> Result<Imported, InspectLogError> {
     let endpoint = spec.model_base_url.as_deref().map(crate::redact::url_without_userinfo).unwrap_or_default();
     let mut rollouts = Vec::new();
     let mut unfinished = Vec::new();
-    let mut system: Option<String> = None;
+    let mut shown_as: Option<Shown> = None;
     let sample_err = |sample: &LogSample, message: String| InspectLogError::Sample {
         path: shown.clone(),
         sample: sample.id.to_string(),
         message,
     };
-    // The config (and so its hash) is settled by the first sample's system
-    // prompt; every sample must have sent the same one.
-    let config_of = |prompt: &str| RunConfig {
+    // The config (and so its hash) is settled by the first sample: how it
+    // showed the scene (its system prompt says) and the detail of its
+    // pictures; every sample must have shown it the same way.
+    let config_of = |shown: Shown| RunConfig {
         model: spec.model.clone(),
         request_params: spec.model_generate_config.clone(),
         history: HistoryWindow::Full,
-        prompt_hash: crate::hash::fnv1a64_hex(prompt),
+        prompt_hash: prompt_hash(Probe::NONE, shown.observation),
         scenarios_hash: set.config_hash(),
         endpoint: if endpoint.is_empty() { format!("inspect:{}", spec.model) } else { endpoint.clone() },
-        probe: crate::probe::Probe::NONE,
+        probe: Probe::NONE,
         human: None,
-        pictures: None,
+        pictures: (shown.observation != ObservationMode::Text).then_some(PictureSettings {
+            observation: shown.observation,
+            detail: shown.detail,
+            history: None,
+        }),
     };
     for sample in &samples {
         let key = sample.key().map_err(|m| sample_err(sample, m))?;
-        let prompt = sample.system_prompt().ok_or_else(|| sample_err(sample, "no system message".into()))?;
-        if prompt != SYSTEM_PROMPT {
-            return Err(sample_err(sample, "its system prompt is not this negotiator's (another version?)".into()));
+        let shown = sample.shown(key.scenario).map_err(|m| sample_err(sample, m))?;
+        if *shown_as.get_or_insert(shown) != shown {
+            return Err(sample_err(
+                sample,
+                "it shows the scene otherwise than the first sample (its system prompt or its pictures' detail)".into(),
+            ));
         }
-        if system.get_or_insert_with(|| prompt.to_string()) != prompt {
-            return Err(sample_err(sample, "its system prompt differs from the first sample's".into()));
-        }
-        let config = config_of(prompt);
+        let config = config_of(shown);
         match replay(&set, sample, key, &config).map_err(|m| sample_err(sample, m))? {
             Replayed::Finished(record) => rollouts.push(*record),
             Replayed::Unfinished { turn, why } => {
@@ -116,7 +124,7 @@ pub fn read(path: &Path) -> Result<Imported, InspectLogError> {
             }
         }
     }
-    let config = config_of(system.as_deref().unwrap_or(SYSTEM_PROMPT));
+    let config = config_of(shown_as.unwrap_or(Shown { observation: ObservationMode::Text, detail: ImageDetail::Auto }));
     let keys: Vec<EpisodeKey> =
         rollouts.iter().map(RolloutRecord::key).chain(unfinished.iter().map(InfraErrorRecord::key)).collect();
     let selection = selection(&spec.task_args, &spec.config, &keys);
@@ -236,17 +244,48 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
         .collect();
     // Per-call facts only when the events and the messages line up.
     let calls = (calls.len() == exchanges.len()).then_some(calls);
+    let observation = config.observation();
+    // Inspect keeps every earlier message, pictures included; each picture
+    // is counted as eval counts one when the prices file has no rule.
+    let per_picture = config
+        .pictures
+        .map_or(0, |p| ImageTokenRule::OPENAI_TILES.tokens(crate::picture::SIZE_PX, crate::picture::SIZE_PX, p.detail));
+    let mut pictures = 0u32;
     let mut turns = Vec::new();
     for (i, (scene, reply)) in exchanges.iter().enumerate() {
         if episode.is_done() {
             return Err(format!("a reply after the episode ended (turn {})", i + 1));
         }
-        let turn = episode.observation().turn;
-        let ours = render_scene(episode.observation());
-        if *scene != ours {
+        let obs = episode.observation();
+        let turn = obs.turn;
+        let ours = render_scene(obs);
+        let shown = match observation {
+            ObservationMode::Image => crate::picture::user_line(obs),
+            ObservationMode::Text | ObservationMode::Both => ours.clone(),
+        };
+        if scene.text != shown {
             return Err(format!(
                 "the scene at turn {turn} is not the one this negotiator renders for {key} (a log of another version, or of another scenario file)"
             ));
+        }
+        match (&scene.image, observation) {
+            (None, ObservationMode::Text) => {}
+            (Some(_), ObservationMode::Text) => {
+                return Err(format!("a picture at turn {turn}, but the system prompt is a text run's"));
+            }
+            (None, _) => return Err(format!("no picture at turn {turn}, but the system prompt says one is shown")),
+            (Some(image), _) => {
+                pictures += 1;
+                // A log written with --no-log-images keeps no bytes to check.
+                if let Some(bytes) = sample.picture_bytes(&image.image)? {
+                    let drawn = crate::picture::png(obs).map_err(|e| e.to_string())?;
+                    if bytes != drawn {
+                        return Err(format!(
+                            "the picture at turn {turn} is not the one this negotiator draws for {key} (a log of another version?)"
+                        ));
+                    }
+                }
+            }
         }
         let call = calls.as_ref().map(|c| &c[i]);
         let completion = call.and_then(|c| c.output.completion.clone()).or_else(|| reply.text.clone());
@@ -272,8 +311,8 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
             tokens: tokens.unwrap_or(0),
             tokens_estimated: tokens.is_none(),
             reply_capped: false,
-            pictures: 0,
-            image_tokens: 0,
+            pictures,
+            image_tokens: u64::from(pictures) * per_picture,
             latency_ms: call.and_then(|c| c.output.time).map_or(0, |t| (t * 1e3).round() as u64),
             attempts: 1,
             after_resolution: false,
@@ -458,6 +497,10 @@ struct LogSample {
     total_time: Option<f64>,
     #[serde(default)]
     completed_at: Option<String>,
+    /// Content Inspect moved out of the messages (`attachment://<hash>`):
+    /// the pictures among them.
+    #[serde(default)]
+    attachments: Map<String, Value>,
 }
 
 fn first_epoch() -> u32 {
@@ -485,6 +528,17 @@ impl Default for Content {
 }
 
 impl Content {
+    /// The message's picture (its first image part), if it has one.
+    fn image(&self) -> Option<ImagePart> {
+        match self {
+            Content::Text(_) => None,
+            Content::Parts(parts) => parts
+                .iter()
+                .find(|p| p.get("type").and_then(Value::as_str) == Some("image"))
+                .and_then(|p| serde_json::from_value(p.clone()).ok()),
+        }
+    }
+
     /// The parts of one type (`text`, `reasoning`), joined by newlines as
     /// Inspect's `ChatMessage.text` joins them; `None` if there are none.
     fn parts(&self, kind: &str) -> Option<String> {
@@ -501,6 +555,31 @@ impl Content {
         }
     }
 }
+
+/// One decision's user message: its text, and its picture if it has one.
+struct Scene {
+    text: String,
+    image: Option<ImagePart>,
+}
+
+/// Inspect's `ContentImage`.
+#[derive(Debug, Deserialize)]
+struct ImagePart {
+    image: String,
+    #[serde(default)]
+    detail: Option<String>,
+}
+
+/// How a sample showed the scene: its system prompt's observation, and
+/// the detail its pictures were sent at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Shown {
+    observation: ObservationMode,
+    detail: ImageDetail,
+}
+
+/// What Inspect writes in place of a picture it was told not to log.
+const PICTURE_NOT_LOGGED: &str = "<base64-data-removed>";
 
 /// One decision as the messages show it: the scene sent and the reply.
 struct Exchange {
@@ -595,13 +674,64 @@ impl LogSample {
         })
     }
 
+    /// How the sample showed the scene: the observation whose system
+    /// prompt (this build's, for the sample's scenario) it sent, and the
+    /// detail of its first picture.
+    fn shown(&self, kind: ScenarioKind) -> Result<Shown, String> {
+        let prompt = self.system_prompt().ok_or("no system message")?;
+        let observation = [ObservationMode::Text, ObservationMode::Image, ObservationMode::Both]
+            .into_iter()
+            .find(|&o| system_prompt(Probe::NONE, kind, o) == prompt)
+            .ok_or_else(|| {
+                if prompt.starts_with(SYSTEM_PROMPT) && prompt.len() > SYSTEM_PROMPT.len() {
+                    "its system prompt asks for a probe or shows pictures in a way this negotiator does not import"
+                } else {
+                    "its system prompt is not this negotiator's (another version?)"
+                }
+            })?;
+        let detail = match self.exchanges().iter().find_map(|(scene, _)| scene.image.as_ref()) {
+            None => ImageDetail::Auto,
+            Some(image) => match image.detail.as_deref().unwrap_or("auto") {
+                "low" => ImageDetail::Low,
+                "high" => ImageDetail::High,
+                "auto" => ImageDetail::Auto,
+                other => return Err(format!("its pictures were sent at detail '{other}', which eval does not send")),
+            },
+        };
+        Ok(Shown { observation, detail })
+    }
+
+    /// The PNG bytes of a picture as the log keeps them: inline, or as one
+    /// of the sample's attachments; `None` when the log left them out.
+    fn picture_bytes(&self, image: &str) -> Result<Option<Vec<u8>>, String> {
+        use base64::Engine as _;
+        let data = match image.strip_prefix("attachment://") {
+            Some(hash) => self
+                .attachments
+                .get(hash)
+                .and_then(Value::as_str)
+                .ok_or_else(|| format!("a picture's attachment {hash} is not in the sample"))?,
+            None => image,
+        };
+        if data == PICTURE_NOT_LOGGED {
+            return Ok(None);
+        }
+        let encoded = data.strip_prefix("data:image/png;base64,").ok_or("a picture that is not a PNG data URL")?;
+        base64::engine::general_purpose::STANDARD
+            .decode(encoded)
+            .map(Some)
+            .map_err(|e| format!("a picture's base64 does not decode ({e})"))
+    }
+
     /// Each user message (a scene) with the assistant's reply after it.
-    fn exchanges(&self) -> Vec<(String, Exchange)> {
+    fn exchanges(&self) -> Vec<(Scene, Exchange)> {
         let mut out = Vec::new();
-        let mut scene: Option<String> = None;
+        let mut scene: Option<Scene> = None;
         for m in &self.messages {
             match m.role.as_str() {
-                "user" => scene = m.content.parts("text"),
+                "user" => {
+                    scene = m.content.parts("text").map(|text| Scene { text, image: m.content.image() });
+                }
                 "assistant" => {
                     if let Some(s) = scene.take() {
                         out.push((

@@ -57,3 +57,15 @@ pub fn system_prompt(
     }
     prompt
 }
+
+/// The hash of every system prompt a run may send (part of the run's
+/// identity): the plain prompt's alone for a text run without a probe, so
+/// runs made before probes existed keep their hash.
+pub fn prompt_hash(probe: crate::probe::Probe, observation: crate::rundir::ObservationMode) -> String {
+    if probe.is_none() && observation == crate::rundir::ObservationMode::Text {
+        return crate::hash::fnv1a64_hex(SYSTEM_PROMPT);
+    }
+    let all: Vec<String> =
+        crate::scenario::ScenarioKind::ALL.iter().map(|&k| system_prompt(probe, k, observation)).collect();
+    crate::hash::fnv1a64_hex(&all.join("\u{0}"))
+}

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 from inspect_ai import eval as inspect_eval
-from inspect_ai.log import EvalLog
-from inspect_ai.model import ModelOutput, ModelUsage, get_model
+from inspect_ai.log import EvalLog, write_eval_log
+from inspect_ai.model import ContentImage, ModelOutput, ModelUsage, get_model
 
 from negotiator.task import negotiator
 
@@ -222,5 +222,39 @@ def test_inspect_shows_the_picture_and_plays_the_episodes_eval_plays(
             r["outcome"], r["turns_taken"], r["disposition"],
         ), r["scenario"]
         assert mine["outcome"] == "success"
+    # Imported, the picture run is eval's picture run line for line: each
+    # picture Inspect logged is checked against the one this build draws.
+    assert log.location
+    imported = tmp_path / "imported"
+    run = subprocess.run(
+        [BIN, "import-inspect", log.location, "--output", str(imported)], capture_output=True, text=True, check=False
+    )
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in (imported / "rollouts.jsonl").read_text().splitlines()]
+    theirs = {(r["scenario"], r["tier"], r["seed"]): r for r in rollouts}
+    same = ["outcome", "reward", "decision_correctness", "turns_taken", "trajectory"]
+    assert len(lines) == len(theirs)
+    for line in lines:
+        other = theirs[(line["scenario"], line["tier"], line["seed"])]
+        assert [line[f] for f in same] == [other[f] for f in same], line["scenario"]
+        assert [(t["scene"], t["pictures"]) for t in line["turns"]] == [
+            (t["scene"], t["pictures"]) for t in other["turns"]
+        ]
+    config = json.loads((imported / "run.json").read_text())["config"]
+    assert config["pictures"] == {"observation": "image", "detail": "auto"}
+    # A picture that is not the one this build draws (the first turn's
+    # shown again at the second) is refused, naming the turn.
+    sample = log.samples[0]
+    second = sample.messages[3]
+    assert isinstance(second.content, list) and isinstance(first.content[0], ContentImage)
+    second.content[0] = first.content[0]
+    tampered = tmp_path / "tampered.eval"
+    write_eval_log(log, str(tampered))
+    run = subprocess.run(
+        [BIN, "import-inspect", str(tampered), "--output", str(tmp_path / "refused")],
+        capture_output=True, text=True, check=False,
+    )
+    assert run.returncode != 0
+    assert "the picture at turn 2 is not the one this negotiator draws" in run.stderr, run.stderr
     with pytest.raises(ValueError, match="unknown observation"):
         negotiator(seeds=1, base_url=env_server, observation="video")

@@ -5,7 +5,6 @@
 //! The system prompt itself is [`crate::instructions::system_prompt`], the
 //! one every front end sends.
 
-use crate::instructions::SYSTEM_PROMPT;
 use crate::llm::{ChatMessage, ImageUrl, Role};
 use crate::observation::{Observation, render_scene};
 use crate::probe::Probe;
@@ -13,22 +12,13 @@ use crate::rundir::{HistoryWindow, ObservationMode, PictureSettings};
 use crate::scenario::ScenarioKind;
 use std::sync::Arc;
 
+pub use crate::instructions::prompt_hash;
+
 /// The system prompt of one episode: [`SYSTEM_PROMPT`], plus each probe's
 /// paragraph for its scenario and the picture's (the one composition every
 /// front end uses).
 pub fn system_prompt(probe: Probe, kind: ScenarioKind, observation: ObservationMode) -> String {
     crate::instructions::system_prompt(probe, kind, observation)
-}
-
-/// The hash of every system prompt a run may send (part of the run's
-/// identity): the plain prompt's alone for a text run without a probe, so
-/// runs made before probes existed keep their hash.
-pub fn prompt_hash(probe: Probe, observation: ObservationMode) -> String {
-    if probe.is_none() && observation == ObservationMode::Text {
-        return crate::hash::fnv1a64_hex(SYSTEM_PROMPT);
-    }
-    let all: Vec<String> = ScenarioKind::ALL.iter().map(|&k| system_prompt(probe, k, observation)).collect();
-    crate::hash::fnv1a64_hex(&all.join("\u{0}"))
 }
 
 /// Why a scene could not be put into a message.
@@ -143,6 +133,7 @@ pub fn history_answer(answer: &str) -> ChatMessage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::instructions::SYSTEM_PROMPT;
 
     fn history(n: usize) -> History {
         let mut h = History::default();

@@ -203,3 +203,96 @@ fn what_is_not_a_log_is_a_one_line_usage_error() {
     let missing = import(&dir.join("nothing.eval"), &dir.join("run"));
     assert_eq!(missing.status.code(), Some(2), "{}", stderr(&missing));
 }
+
+/// The fixture's samples as a picture run (`-T observation=both`) would
+/// have logged them: this build's system prompt for `both`, and each user
+/// message as the picture (one of the sample's attachments, as Inspect
+/// condenses images) beside the scene text. `picture_of` may change what
+/// a turn's picture is (the sample, the turn from 1).
+fn as_picture_log(dir: &Path, picture_of: impl Fn(usize, u32, String) -> String) -> PathBuf {
+    use base64::Engine as _;
+    use negotiator::episode::Episode;
+    as_json_log(dir, |samples| {
+        let set = ScenarioSet::default();
+        for (s, sample) in samples.iter_mut().enumerate() {
+            let md = &sample["metadata"];
+            let kind: ScenarioKind = md["scenario"].as_str().unwrap().parse().unwrap();
+            let tier: Tier = md["tier"].to_string().trim_matches('"').parse().unwrap();
+            let mut episode = Episode::new(set.get(kind), tier, md["seed"].as_u64().unwrap());
+            let mut attachments = Map::new();
+            let messages = sample["messages"].as_array_mut().unwrap();
+            let system = negotiator::instructions::SYSTEM_PROMPT.to_string()
+                + &negotiator::picture::prompt_paragraph(kind, true);
+            messages[0]["content"] = json!(system);
+            for m in messages.iter_mut().skip(1) {
+                if m["role"] == "user" {
+                    let obs = episode.observation();
+                    let png = negotiator::picture::png(obs).unwrap();
+                    let url =
+                        format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(png));
+                    let hash = format!("{s}-{}", obs.turn);
+                    attachments.insert(hash.clone(), json!(picture_of(s, obs.turn, url)));
+                    m["content"] = json!([
+                        {"type": "image", "image": format!("attachment://{hash}"), "detail": "auto"},
+                        {"type": "text", "text": negotiator::observation::render_scene(obs)},
+                    ]);
+                } else if m["role"] == "assistant" {
+                    let reply = match &m["content"] {
+                        Value::String(t) => t.clone(),
+                        parts => parts.as_array().unwrap().iter().filter_map(|p| p["text"].as_str()).collect(),
+                    };
+                    episode.step(negotiator::action::parse_action(&reply).action);
+                }
+            }
+            sample["attachments"] = Value::Object(attachments);
+        }
+    })
+}
+
+/// A log of `-T observation=both` imports as eval's picture run: its own
+/// row, the pictures counted per turn, and each picture Inspect kept
+/// checked byte for byte against the one this build draws (a log written
+/// with `--no-log-images` keeps none to check).
+#[test]
+fn a_picture_log_imports_as_the_picture_run_and_its_pictures_are_checked() {
+    let dir = scratch("inspect-pictures");
+    let log = as_picture_log(
+        &dir,
+        |s, turn, url| {
+            if s == 1 && turn == 3 { "<base64-data-removed>".to_string() } else { url }
+        },
+    );
+    let out = dir.join("run");
+    let o = import(&log, &out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let info = read_json(&out.join("run.json"));
+    assert_eq!(info["config"]["pictures"], json!({"observation": "both", "detail": "auto"}));
+    let rollouts = jsonl(&out.join("rollouts.jsonl"));
+    assert_eq!(rollouts.len(), 2);
+    for r in &rollouts {
+        assert_eq!(r["outcome"], "success", "{}", r["scenario"]);
+        for (i, t) in r["turns"].as_array().unwrap().iter().enumerate() {
+            // Inspect keeps every earlier picture; each is 255 tokens by
+            // OpenAI's tiles at detail auto.
+            assert_eq!(t["pictures"].as_u64(), Some(i as u64 + 1));
+            assert_eq!(t["image_tokens"].as_u64(), Some(255 * (i as u64 + 1)));
+        }
+    }
+    // The second turn shows the first turn's picture again: refused.
+    let tampered = dir.join("tampered");
+    std::fs::create_dir_all(&tampered).unwrap();
+    let first: std::cell::RefCell<Option<String>> = Default::default();
+    let log = as_picture_log(&tampered, |s, turn, url| match (s, turn) {
+        (0, 1) => {
+            *first.borrow_mut() = Some(url.clone());
+            url
+        }
+        (0, 2) => first.borrow().clone().unwrap(),
+        _ => url,
+    });
+    let o = import(&log, &tampered.join("run"));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("the picture at turn 2 is not the one this negotiator draws"), "{err}");
+    assert!(err.lines().count() == 1, "one line: {err}");
+}
