@@ -221,7 +221,9 @@ enum AttemptError {
 /// The exact bytes POSTed for a request (`eval --dry-run` prints and
 /// measures these too).
 pub fn request_body(request: &ChatRequest<'_>) -> Vec<u8> {
-    serde_json::to_vec(request).expect("a chat request always serialises")
+    let mut body = Vec::with_capacity(request.json_len_hint());
+    serde_json::to_writer(&mut body, request).expect("a chat request always serialises");
+    body
 }
 
 pub struct Client {
@@ -285,8 +287,9 @@ impl Client {
         on_retry: impl Fn(&str),
         fail_fast_on_connect: bool,
     ) -> Result<Completion, LlmError> {
-        // Serialise once; every attempt sends the same bytes.
-        let body = request_body(request);
+        // Serialise once; every attempt sends the same bytes, shared (a
+        // conversation of pictures is megabytes; a retry copies none).
+        let body = bytes::Bytes::from(request_body(request));
         let mut last = String::new();
         let attempts_allowed = self.config.retry.max_retries.saturating_add(1);
         for attempt in 0..attempts_allowed {
@@ -316,10 +319,10 @@ impl Client {
     /// One POST: its completion, or why it failed and whether that is
     /// worth retrying. The body is read up to a hard limit; an unrequested
     /// event stream and a context overflow are recognised here.
-    async fn attempt(&self, body: &[u8]) -> Result<Completion, AttemptError> {
+    async fn attempt(&self, body: &bytes::Bytes) -> Result<Completion, AttemptError> {
         let transient = |message: String| AttemptError::Transient { message, retry_after: None, connect: false };
         let response =
-            self.http.post(&self.url).timeout(self.config.request_timeout).body(body.to_vec()).send().await.map_err(
+            self.http.post(&self.url).timeout(self.config.request_timeout).body(body.clone()).send().await.map_err(
                 |e| AttemptError::Transient {
                     message: describe_reqwest(&e),
                     retry_after: None,
