@@ -16,10 +16,11 @@
 #      sides; eval's CPU (user + system) per decision turn against run 1's,
 #      the twin world included; target at most 2x.
 #   5. Pictures' cost: run 1 again with `--observation image` (every turn's
-#      picture drawn, encoded and sent with every earlier one), n
-#      PICTURE_SEEDS (default 50); eval's CPU per decision turn against run
-#      1's; the issue's target was at most 3x (docs/speed.md gives the bound
-#      a picture's own 0.75 ms puts on it).
+#      picture drawn, encoded and sent with every earlier one), then with
+#      `--image-history 1` too, n PICTURE_SEEDS (default 50); eval's CPU per
+#      decision turn against run 1's, and peak RSS; the issue's target was
+#      at most 3x (docs/eval.md gives the bound the PNG encoder alone puts
+#      on it).
 #
 # Usage: scripts/bench_eval.sh [OUT_DIR]   (default: a fresh temporary dir)
 # Needs: cargo, /usr/bin/time (Debian package `time`), python3.
@@ -108,12 +109,20 @@ echo "== 5: pictures' cost (latency 0, -c 64, all scenarios x tiers, n $PICTURE_
 start_serve pictures --latency-ms 0 --probe-seeds "0..$PICTURE_SEEDS"
 /usr/bin/time -v "$BIN" eval --base-url "$BASE_URL" --model expert --scenario all --tier all -n "$PICTURE_SEEDS" -c 64 \
   --observation image --output "$OUT/pictures" --run-name run --quiet >"$OUT/pictures.summary" 2>"$OUT/pictures.time"
+# The same episodes with pictures kept only in the newest user turn.
+/usr/bin/time -v "$BIN" eval --base-url "$BASE_URL" --model expert --scenario all --tier all -n "$PICTURE_SEEDS" -c 64 \
+  --observation image --image-history 1 --output "$OUT/pictures-1" --run-name run --quiet \
+  >"$OUT/pictures-1.summary" 2>"$OUT/pictures-1.time"
 stop_serve
+rss() { awk -F': ' '/Maximum resident set size/ { print int($2 / 1024) }' "$1"; }
 python3 - "$(inv "$OUT/overhead/run/run.json" turns)" "$(cpu "$OUT/overhead.time")" \
-  "$(inv "$OUT/pictures/run/run.json" turns)" "$(cpu "$OUT/pictures.time")" <<'EOF'
+  "$(inv "$OUT/pictures/run/run.json" turns)" "$(cpu "$OUT/pictures.time")" "$(rss "$OUT/pictures.time")" \
+  "$(inv "$OUT/pictures-1/run/run.json" turns)" "$(cpu "$OUT/pictures-1.time")" "$(rss "$OUT/pictures-1.time")" <<'EOF'
 import sys
-plain_turns, plain_cpu, pic_turns, pic_cpu = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3]), float(sys.argv[4])
-plain, pic = plain_cpu / plain_turns * 1e6, pic_cpu / pic_turns * 1e6
-print(f"eval CPU per turn: {plain:.0f} us with text, {pic:.0f} us with --observation image -> {pic / plain:.1f}x (issue's target <= 3x: {'PASS' if pic <= 3 * plain else 'NOT MET'})")
+plain_turns, plain_cpu = int(sys.argv[1]), float(sys.argv[2])
+plain = plain_cpu / plain_turns * 1e6
+for label, (turns, cpu, rss) in [("--observation image", sys.argv[3:6]), ("--observation image --image-history 1", sys.argv[6:9])]:
+    pic = float(cpu) / int(turns) * 1e6
+    print(f"eval CPU per turn: {plain:.0f} us with text, {pic:.0f} us with {label} -> {pic / plain:.1f}x, peak RSS {rss} MB (issue's target <= 3x: {'PASS' if pic <= 3 * plain else 'NOT MET'})")
 EOF
 echo "outputs in $OUT"

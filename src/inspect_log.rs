@@ -8,13 +8,14 @@
 //! `Episode` and the same parser `eval` uses, and every scene the log shows
 //! must be the scene this build renders at that turn (a log from another
 //! version of the benchmark, or another scenario file, is refused rather
-//! than misread). A picture run's (`-T observation=image|both`) pictures,
-//! when the log keeps them, must be the bytes this build draws. The grades, the evidence timing and the hidden
-//! disposition are therefore this build's own; the log's score must agree
-//! with them. What only the log knows is kept as the log states it: the
-//! model as Inspect names it, its generate config, per-turn usage and
-//! latency (from the sample's model events), and the task's arguments.
-//! The cost is unknown (Inspect's own accounting is not a price).
+//! than misread), and a picture run's (`-T observation=image|both`)
+//! pictures, when the log keeps them, must be the bytes this build draws.
+//! The grades, the evidence timing and the hidden disposition are
+//! therefore this build's own; the log's score must agree with them. What
+//! only the log knows is kept as the log states it: the model as Inspect
+//! names it, its generate config, per-turn usage and latency (from the
+//! sample's model events), and the task's arguments. The cost is unknown
+//! (Inspect's own accounting is not a price).
 //!
 //! A sample that did not finish (an Inspect limit or an error ended it) is
 //! an infrastructure error of the run (`errors.jsonl`), as in `eval`: it is
