@@ -15,6 +15,7 @@ import os
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from inspect_ai import eval as inspect_eval
@@ -66,6 +67,31 @@ def episodes(log: EvalLog) -> dict[tuple[str, int, int], dict[str, object]]:
     return out
 
 
+def import_log(location: str, out: Path) -> subprocess.CompletedProcess[str]:
+    """`negotiator import-inspect` of one log into `out`."""
+    return subprocess.run(
+        [BIN, "import-inspect", location, "--output", str(out)], capture_output=True, text=True, check=False
+    )
+
+
+def imported_beside_eval(
+    location: str, out: Path, rollouts: list[dict[str, Any]], same: list[str]
+) -> list[tuple[dict[str, Any], dict[str, Any]]]:
+    """Import the log into `out` and pair each line with eval's line for
+    the same episode, having checked the fields `same` agree."""
+    run = import_log(location, out)
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in (out / "rollouts.jsonl").read_text().splitlines()]
+    theirs = {(r["scenario"], r["tier"], r["seed"]): r for r in rollouts}
+    assert len(lines) == len(theirs)
+    pairs = []
+    for line in lines:
+        other = theirs[(line["scenario"], line["tier"], line["seed"])]
+        assert [line[f] for f in same] == [other[f] for f in same], line["scenario"]
+        pairs.append((line, other))
+    return pairs
+
+
 def test_inspect_plays_the_episodes_eval_plays(env_server: str, expert_endpoint: str, tmp_path: Path) -> None:
     os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
     os.environ["NEGOTIATOR_API_KEY"] = "offline"
@@ -94,18 +120,9 @@ def test_inspect_plays_the_episodes_eval_plays(env_server: str, expert_endpoint:
     # (but for what only the harness knows: the model's name, usage, timing).
     assert log.location
     imported = tmp_path / "imported"
-    run = subprocess.run(
-        [BIN, "import-inspect", log.location, "--output", str(imported)], capture_output=True, text=True, check=False
-    )
-    assert run.returncode == 0, run.stderr
-    lines = [json.loads(line) for line in (imported / "rollouts.jsonl").read_text().splitlines()]
-    theirs = {(r["scenario"], r["tier"], r["seed"]): r for r in rollouts}
     same = ["outcome", "reward", "decision_correctness", "disposition", "turns_taken", "evidence_turn",
             "commitment_turn", "diagnostics", "trajectory"]
-    assert len(lines) == len(theirs)
-    for line in lines:
-        other = theirs[(line["scenario"], line["tier"], line["seed"])]
-        assert [line[f] for f in same] == [other[f] for f in same], line["scenario"]
+    for line, other in imported_beside_eval(log.location, imported, rollouts, same):
         assert [t["reply"] for t in line["turns"]] == [t["reply"] for t in other["turns"]]
     assert json.loads((imported / "run.json").read_text())["config"]["model"] == "openai-api/negotiator/expert"
 
@@ -226,17 +243,8 @@ def test_inspect_shows_the_picture_and_plays_the_episodes_eval_plays(
     # picture Inspect logged is checked against the one this build draws.
     assert log.location
     imported = tmp_path / "imported"
-    run = subprocess.run(
-        [BIN, "import-inspect", log.location, "--output", str(imported)], capture_output=True, text=True, check=False
-    )
-    assert run.returncode == 0, run.stderr
-    lines = [json.loads(line) for line in (imported / "rollouts.jsonl").read_text().splitlines()]
-    theirs = {(r["scenario"], r["tier"], r["seed"]): r for r in rollouts}
     same = ["outcome", "reward", "decision_correctness", "turns_taken", "trajectory"]
-    assert len(lines) == len(theirs)
-    for line in lines:
-        other = theirs[(line["scenario"], line["tier"], line["seed"])]
-        assert [line[f] for f in same] == [other[f] for f in same], line["scenario"]
+    for line, other in imported_beside_eval(log.location, imported, rollouts, same):
         assert [(t["scene"], t["pictures"]) for t in line["turns"]] == [
             (t["scene"], t["pictures"]) for t in other["turns"]
         ]
@@ -250,10 +258,7 @@ def test_inspect_shows_the_picture_and_plays_the_episodes_eval_plays(
     second.content[0] = first.content[0]
     tampered = tmp_path / "tampered.eval"
     write_eval_log(log, str(tampered))
-    run = subprocess.run(
-        [BIN, "import-inspect", str(tampered), "--output", str(tmp_path / "refused")],
-        capture_output=True, text=True, check=False,
-    )
+    run = import_log(str(tampered), tmp_path / "refused")
     assert run.returncode != 0
     assert "the picture at turn 2 is not the one this negotiator draws" in run.stderr, run.stderr
     with pytest.raises(ValueError, match="unknown observation"):
