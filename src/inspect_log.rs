@@ -260,34 +260,7 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
         let obs = episode.observation();
         let turn = obs.turn;
         let ours = render_scene(obs);
-        let shown = match observation {
-            ObservationMode::Image => crate::picture::user_line(obs),
-            ObservationMode::Text | ObservationMode::Both => ours.clone(),
-        };
-        if scene.text != shown {
-            return Err(format!(
-                "the scene at turn {turn} is not the one this negotiator renders for {key} (a log of another version, or of another scenario file)"
-            ));
-        }
-        match (&scene.image, observation) {
-            (None, ObservationMode::Text) => {}
-            (Some(_), ObservationMode::Text) => {
-                return Err(format!("a picture at turn {turn}, but the system prompt is a text run's"));
-            }
-            (None, _) => return Err(format!("no picture at turn {turn}, but the system prompt says one is shown")),
-            (Some(image), _) => {
-                pictures += 1;
-                // A log written with --no-log-images keeps no bytes to check.
-                if let Some(bytes) = sample.picture_bytes(&image.image)? {
-                    let drawn = crate::picture::png(obs).map_err(|e| e.to_string())?;
-                    if bytes != drawn {
-                        return Err(format!(
-                            "the picture at turn {turn} is not the one this negotiator draws for {key} (a log of another version?)"
-                        ));
-                    }
-                }
-            }
-        }
+        pictures += u32::from(check_scene(sample, scene, obs, &ours, observation, key)?);
         let call = calls.as_ref().map(|c| &c[i]);
         let completion = call.and_then(|c| c.output.completion.clone()).or_else(|| reply.text.clone());
         let parsed = parse_action(completion.as_deref().unwrap_or(""));
@@ -353,6 +326,49 @@ fn replay(set: &ScenarioSet, sample: &LogSample, key: EpisodeKey, config: &RunCo
         finished_at: sample.completed_at.clone().unwrap_or_default(),
     };
     Ok(Replayed::Finished(Box::new(RolloutRecord::assemble(key, graded, turns, Default::default(), from))))
+}
+
+/// Whether the user message the log shows is the one this build sends for
+/// `obs` (its text is `ours`) when the scene is shown as `observation`:
+/// its line or text, and its picture's bytes when the log kept them.
+/// Returns whether the message carries a picture.
+fn check_scene(
+    sample: &LogSample,
+    scene: &Scene,
+    obs: &crate::observation::Observation,
+    ours: &str,
+    observation: ObservationMode,
+    key: EpisodeKey,
+) -> Result<bool, String> {
+    let turn = obs.turn;
+    let sent = match observation {
+        ObservationMode::Image => crate::picture::user_line(obs),
+        ObservationMode::Text | ObservationMode::Both => ours.to_string(),
+    };
+    if scene.text != sent {
+        return Err(format!(
+            "the scene at turn {turn} is not the one this negotiator renders for {key} (a log of another version, or of another scenario file)"
+        ));
+    }
+    match (&scene.image, observation) {
+        (None, ObservationMode::Text) => Ok(false),
+        (Some(_), ObservationMode::Text) => {
+            Err(format!("a picture at turn {turn}, but the system prompt is a text run's"))
+        }
+        (None, _) => Err(format!("no picture at turn {turn}, but the system prompt says one is shown")),
+        (Some(image), _) => {
+            // A log written with --no-log-images keeps no bytes to check.
+            if let Some(bytes) = sample.picture_bytes(&image.image)? {
+                let drawn = crate::picture::png(obs).map_err(|e| e.to_string())?;
+                if bytes != drawn {
+                    return Err(format!(
+                        "the picture at turn {turn} is not the one this negotiator draws for {key} (a log of another version?)"
+                    ));
+                }
+            }
+            Ok(true)
+        }
+    }
 }
 
 /// Inspect's stop reasons in the words `eval` records (`finish_reason`).
