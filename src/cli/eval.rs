@@ -257,7 +257,7 @@ impl EvalArgs {
             model: target.model,
             request_params: built.params,
             history,
-            prompt_hash: crate::eval::prompt::prompt_hash(self.probe, self.observation),
+            prompt_hash: crate::instructions::prompt_hash(self.probe, self.observation),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: crate::redact::url_without_userinfo(&target.base_url),
             probe: self.probe,

@@ -108,7 +108,7 @@ impl PlayArgs {
             model: format!("human:{name}"),
             request_params: Default::default(),
             history: HistoryWindow::Full,
-            prompt_hash: crate::eval::prompt::prompt_hash(crate::probe::Probe::NONE, pictures.observation()),
+            prompt_hash: crate::instructions::prompt_hash(crate::probe::Probe::NONE, pictures.observation()),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: "terminal".to_string(),
             probe: crate::probe::Probe::NONE,

@@ -12,8 +12,6 @@ use crate::rundir::{HistoryWindow, ObservationMode, PictureSettings};
 use crate::scenario::ScenarioKind;
 use std::sync::Arc;
 
-pub use crate::instructions::prompt_hash;
-
 /// The system prompt of one episode: [`SYSTEM_PROMPT`], plus each probe's
 /// paragraph for its scenario and the picture's (the one composition every
 /// front end uses).
@@ -133,7 +131,7 @@ pub fn history_answer(answer: &str) -> ChatMessage {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::instructions::SYSTEM_PROMPT;
+    use crate::instructions::{SYSTEM_PROMPT, prompt_hash};
 
     fn history(n: usize) -> History {
         let mut h = History::default();

@@ -123,9 +123,10 @@ pub struct ChatRequest<'a> {
 }
 
 impl ChatRequest<'_> {
-    /// About the length of its JSON (a little more, but for escapes): the
-    /// body is written into a buffer this size at once rather than grown
-    /// by doubling, which for a conversation of pictures copies megabytes.
+    /// About the length of its JSON, a little over unless much of its text
+    /// needs escaping: the body is written into a buffer this size at once
+    /// rather than grown by doubling, which for a conversation of pictures
+    /// copies megabytes.
     pub fn json_len_hint(&self) -> usize {
         let messages: usize = self
             .messages
