@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from inspect_ai import Task
 from inspect_ai import eval as inspect_eval
 from inspect_ai.log import EvalLog, write_eval_log
 from inspect_ai.model import ContentImage, ModelOutput, ModelUsage, get_model
@@ -53,6 +54,17 @@ def expert_endpoint() -> Iterator[str]:
     yield url
     process.terminate()
     process.wait()
+
+
+def served(task: Task, service: str, endpoint: str, tmp_path: Path) -> EvalLog:
+    """Inspect's own `openai-api` provider plays `task` against a served
+    policy: the service's base URL and key as its docs say to give them."""
+    os.environ[f"{service.upper()}_BASE_URL"] = endpoint
+    os.environ[f"{service.upper()}_API_KEY"] = "offline"
+    [log] = inspect_eval(
+        task, model=f"openai-api/{service}/expert", log_dir=str(tmp_path / "logs"), display="none"
+    )
+    return log
 
 
 def episodes(log: EvalLog) -> dict[tuple[str, int, int], dict[str, object]]:
@@ -93,13 +105,11 @@ def imported_beside_eval(
 
 
 def test_inspect_plays_the_episodes_eval_plays(env_server: str, expert_endpoint: str, tmp_path: Path) -> None:
-    os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
-    os.environ["NEGOTIATOR_API_KEY"] = "offline"
-    [log] = inspect_eval(
+    log = served(
         negotiator(seeds=SEEDS, base_url=env_server),
-        model="openai-api/negotiator/expert",
-        log_dir=str(tmp_path / "logs"),
-        display="none",
+        "negotiator",
+        expert_endpoint,
+        tmp_path,
     )
     ours = episodes(log)
     run = subprocess.run(
@@ -153,13 +163,11 @@ def test_mockllms_default_answer_drives_as_evals_firm_stop(env_server: str, tmp_
 
 
 def test_the_disposition_shows_only_after_the_episode(env_server: str, expert_endpoint: str, tmp_path: Path) -> None:
-    os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
-    os.environ["NEGOTIATOR_API_KEY"] = "offline"
-    [log] = inspect_eval(
+    log = served(
         negotiator(scenario="yield_standoff", tier="1", seeds=SEEDS, base_url=env_server),
-        model="openai-api/negotiator/expert",
-        log_dir=str(tmp_path / "logs"),
-        display="none",
+        "negotiator",
+        expert_endpoint,
+        tmp_path,
     )
     assert log.samples
     for sample in log.samples:
@@ -183,14 +191,12 @@ def test_the_forecast_probe_is_asked_read_and_scored_by_env_server(
     env_server: str, forecasting_endpoint: str, tmp_path: Path
 ) -> None:
     # A service of its own: Inspect keeps one client per model name.
-    os.environ["FORECASTING_BASE_URL"] = forecasting_endpoint
-    os.environ["FORECASTING_API_KEY"] = "offline"
-    [log] = inspect_eval(
+    log = served(
         negotiator(scenario="yield_standoff,contested_merge", tier="1", seeds=SEEDS, base_url=env_server,
                    probe="forecast"),
-        model="openai-api/forecasting/expert",
-        log_dir=str(tmp_path / "logs"),
-        display="none",
+        "forecasting",
+        forecasting_endpoint,
+        tmp_path,
     )
     ours = episodes(log)
     assert len(ours) == 2 * SEEDS
@@ -204,20 +210,17 @@ def test_the_forecast_probe_is_asked_read_and_scored_by_env_server(
     assert "if_it_lets_you_go_first" in system, system
 
 
-
 def test_inspect_shows_the_picture_and_plays_the_episodes_eval_plays(
     env_server: str, expert_endpoint: str, tmp_path: Path
 ) -> None:
     # observation=image: env-server's picture goes to the model as Inspect's
     # own image content (the served expert finds the episode from it), and
     # the episodes are those `negotiator eval --observation image` plays.
-    os.environ["NEGOTIATOR_BASE_URL"] = expert_endpoint
-    os.environ["NEGOTIATOR_API_KEY"] = "offline"
-    [log] = inspect_eval(
+    log = served(
         negotiator(seeds=2, tier="1", base_url=env_server, observation="image"),
-        model="openai-api/negotiator/expert",
-        log_dir=str(tmp_path / "logs"),
-        display="none",
+        "negotiator",
+        expert_endpoint,
+        tmp_path,
     )
     ours = episodes(log)
     assert log.samples is not None
