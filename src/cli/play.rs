@@ -52,25 +52,15 @@ pub struct PlayArgs {
     pub practice: bool,
 }
 
-/// `--view picture`: the run shows pictures as `eval --observation image`.
-struct PictureView {
-    settings: Option<crate::rundir::PictureSettings>,
-}
-
-impl PictureView {
-    fn of(view: &str) -> PictureView {
-        use crate::rundir::{ImageDetail, ObservationMode, PictureSettings};
-        let settings = (view == "picture").then_some(PictureSettings {
-            observation: ObservationMode::Image,
-            detail: ImageDetail::Auto,
-            history: None,
-        });
-        PictureView { settings }
-    }
-
-    fn observation(&self) -> crate::rundir::ObservationMode {
-        self.settings.map_or(crate::rundir::ObservationMode::Text, |p| p.observation)
-    }
+/// `--view picture`: the run shows pictures as `eval --observation image`
+/// does (no settings for the other views).
+fn picture_settings(view: &str) -> Option<crate::rundir::PictureSettings> {
+    use crate::rundir::{ImageDetail, ObservationMode, PictureSettings};
+    (view == "picture").then_some(PictureSettings {
+        observation: ObservationMode::Image,
+        detail: ImageDetail::Auto,
+        history: None,
+    })
 }
 
 impl PlayArgs {
@@ -103,17 +93,18 @@ impl PlayArgs {
             return Err(usage(format!("--seed: seeds from {} on are practice seeds", crate::play::PRACTICE_SEED_BASE)));
         }
         let scenario_set = ScenarioSet::default();
-        let pictures = PictureView::of(&self.view);
+        let pictures = picture_settings(&self.view);
+        let observation = pictures.map_or(crate::rundir::ObservationMode::Text, |p| p.observation);
         let config = RunConfig {
             model: format!("human:{name}"),
             request_params: Default::default(),
             history: HistoryWindow::Full,
-            prompt_hash: crate::instructions::prompt_hash(crate::probe::Probe::NONE, pictures.observation()),
+            prompt_hash: crate::instructions::prompt_hash(crate::probe::Probe::NONE, observation),
             scenarios_hash: scenario_set.config_hash(),
             endpoint: "terminal".to_string(),
             probe: crate::probe::Probe::NONE,
             human: Some(HumanSettings { turn_seconds: self.turn_seconds, view: self.view.clone(), feedback }),
-            pictures: pictures.settings,
+            pictures,
         };
         let run_dir = if self.practice {
             std::env::temp_dir().join(format!("negotiator-practice-{}", std::process::id()))
@@ -154,7 +145,6 @@ impl PlayArgs {
             feedback,
             plan_view,
             picture_file: pictures
-                .settings
                 .map(|_| std::env::temp_dir().join(format!("negotiator-play-{}-picture.png", std::process::id()))),
             turn_seconds: self.turn_seconds,
             line_mode,
