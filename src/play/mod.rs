@@ -107,8 +107,7 @@ pub fn run(options: PlayOptions) -> anyhow::Result<RunOutcome> {
     runtime.spawn(async move {
         let _ = axum::serve(listener, endpoint::router(state)).await;
     });
-    let PlayOptions { mut eval, name, feedback, plan_view, turn_seconds, line_mode, practice, picture_file: _ } =
-        options;
+    let PlayOptions { mut eval, name, feedback, plan_view, turn_seconds, line_mode, practice, picture_file } = options;
     eval.client.base_url = format!("http://127.0.0.1:{port}/v1");
     eval.interrupt = Some(interrupt.clone());
     let run_dir = eval.run_dir.clone();
@@ -125,6 +124,11 @@ pub fn run(options: PlayOptions) -> anyhow::Result<RunOutcome> {
     let side = Side { from_run, interrupt, feedback: feedback || practice, plan_view, turn_seconds, name };
     let played = if line_mode { side.lines() } else { terminal::run(&side) };
     let outcome = handle.join().map_err(|_| anyhow::anyhow!("the run's thread panicked"))?;
+    // The picture file is the screen's, not the record's (the run keeps
+    // the scene texts the pictures are drawn from).
+    if let Some(file) = &picture_file {
+        let _ = std::fs::remove_file(file);
+    }
     played?;
     let outcome = outcome?;
     if practice {

@@ -217,24 +217,33 @@ fn a_person_plays_from_the_picture() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // One answer, then the end of input (save and quit).
-    child.stdin.take().unwrap().write_all(b"y3\n").unwrap();
+    // One answer; the second turn's picture is read while play waits for
+    // the next, then the end of input (save and quit).
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(b"y3\n").unwrap();
+    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let (mut shown, mut pictures) = (String::new(), Vec::new());
+    while pictures.len() < 2 {
+        let mut line = String::new();
+        assert!(std::io::BufRead::read_line(&mut stdout, &mut line).unwrap() > 0, "{shown}");
+        if let Some(path) = line.strip_prefix("Picture: ").and_then(|l| l.split(" (").next()) {
+            pictures.push(path.to_string());
+        }
+        shown.push_str(&line);
+    }
+    assert!(shown.contains("Turn 1 of ") && !shown.contains("Scene: "), "{shown}");
+    let path = pictures[1].clone();
+    let png = std::fs::read(&path).unwrap();
+    drop(stdin);
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let shown = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(shown.contains("Turn 1 of ") && !shown.contains("Scene: "), "{shown}");
-    let path = shown
-        .lines()
-        .find_map(|l| l.strip_prefix("Picture: "))
-        .and_then(|l| l.split(" (").next())
-        .unwrap_or_else(|| panic!("{shown}"));
-    let png = std::fs::read(path).unwrap();
-    // The file holds the latest turn's picture: the second, after one answer.
+    // The file held the latest turn's picture: the second, after one
+    // answer; it is gone once play ends (the run keeps the scene texts).
     let set = negotiator::scenario::ScenarioSet::default();
     let mut episode = negotiator::episode::Episode::new(set.get(kind), negotiator::scenario::Tier::T1, 0);
     episode.step(negotiator::action::Action::new(negotiator::action::Maneuver::Yield, 3.0 / 9.0));
     assert_eq!(png, negotiator::picture::png(episode.observation()).unwrap());
-    let _ = std::fs::remove_file(path);
+    assert!(!std::path::Path::new(&path).exists(), "{path} left behind");
     let info = run_json(&dir);
     assert_eq!(
         (info["config"]["human"]["view"].as_str(), info["config"]["pictures"]["observation"].as_str()),
